@@ -1,0 +1,198 @@
+"""One exception hierarchy for the whole library.
+
+Every error raised on purpose by ``ibvs_youla`` derives from :class:`IbvsYoulaError`.
+Messages say what was received and what is valid; the offending data is attached
+as attributes so that a caller (or a campaign runner) can investigate without
+parsing the message.
+
+Errors about bad arguments also derive from :class:`ValueError`, so code that
+already catches ``ValueError`` keeps working.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = [
+    "CalibrationError",
+    "ConfigError",
+    "DegenerateMarkersError",
+    "IbvsYoulaError",
+    "InvalidArrayError",
+    "InvalidDisparityError",
+    "InvalidParameterError",
+    "JointLimitError",
+    "ModelLoadError",
+    "PointBehindCameraError",
+    "SimulationDivergedError",
+    "SingularConfigurationError",
+    "UnreachablePoseError",
+]
+
+
+class IbvsYoulaError(Exception):
+    """Base class of every error that ``ibvs_youla`` raises on purpose."""
+
+
+# --------------------------------------------------------------------------- input
+class InvalidArrayError(IbvsYoulaError, ValueError):
+    """An array argument has the wrong shape, or holds NaN or infinite values.
+
+    Attributes:
+        name: Name of the argument.
+        received: Short description of what was received (shape, bad entries).
+        expected: Short description of what is valid.
+    """
+
+    def __init__(self, name: str, received: str, expected: str) -> None:
+        self.name = name
+        self.received = received
+        self.expected = expected
+        super().__init__(f"{name}: received {received}; expected {expected}")
+
+
+class InvalidParameterError(IbvsYoulaError, ValueError):
+    """A scalar setting is out of its valid range or of an unknown kind.
+
+    Attributes:
+        name: Name of the setting.
+        value: The value received.
+        valid: Description of the valid values, e.g. ``"> 0"`` or ``"'fb' or 'ff+fb'"``.
+    """
+
+    def __init__(self, name: str, value: Any, valid: str) -> None:
+        self.name = name
+        self.value = value
+        self.valid = valid
+        super().__init__(f"{name}: received {value!r}; valid values are {valid}")
+
+
+class ConfigError(InvalidParameterError):
+    """A key of a TOML configuration file is unknown or has an invalid value."""
+
+
+class JointLimitError(IbvsYoulaError, ValueError):
+    """A joint configuration lies outside the arm's position limits.
+
+    Attributes:
+        q: The configuration received [rad].
+        q_min: Lower limits [rad].
+        q_max: Upper limits [rad].
+    """
+
+    def __init__(self, q: Any, q_min: Any, q_max: Any, message: str) -> None:
+        self.q = q
+        self.q_min = q_min
+        self.q_max = q_max
+        super().__init__(message)
+
+
+# --------------------------------------------------------------------------- model
+class ModelLoadError(IbvsYoulaError):
+    """A robot description (URDF) could not be found, parsed or used.
+
+    Attributes:
+        path: The file that was being loaded.
+    """
+
+    def __init__(self, path: Any, message: str) -> None:
+        self.path = path
+        super().__init__(message)
+
+
+class UnreachablePoseError(IbvsYoulaError):
+    """No inverse-kinematics solution within the joint limits reaches the pose.
+
+    Attributes:
+        pose: The requested 4x4 pose.
+    """
+
+    def __init__(self, pose: Any, message: str) -> None:
+        self.pose = pose
+        super().__init__(message)
+
+
+class SingularConfigurationError(IbvsYoulaError):
+    """A computation needs a full-rank Jacobian and the configuration is singular.
+
+    Attributes:
+        singular_values: Singular values of the Jacobian concerned.
+    """
+
+    def __init__(self, singular_values: Any, message: str) -> None:
+        self.singular_values = singular_values
+        super().__init__(message)
+
+
+# --------------------------------------------------------------------------- camera / estimation
+class PointBehindCameraError(IbvsYoulaError, ValueError):
+    """A point has non-positive depth where a physical projection is required.
+
+    Attributes:
+        indices: Indices of the offending points.
+        depths: Their depths Z_C [m].
+    """
+
+    def __init__(self, indices: Any, depths: Any, message: str) -> None:
+        self.indices = indices
+        self.depths = depths
+        super().__init__(message)
+
+
+class InvalidDisparityError(IbvsYoulaError, ValueError):
+    """Stereo disparity u_r - u_l is zero or negative, so depth is undefined.
+
+    Attributes:
+        indices: Indices of the offending points.
+        disparities: Their disparities [m on the sensor].
+    """
+
+    def __init__(self, indices: Any, disparities: Any, message: str) -> None:
+        self.indices = indices
+        self.disparities = disparities
+        super().__init__(message)
+
+
+class DegenerateMarkersError(IbvsYoulaError, ValueError):
+    """Markers are coincident or collinear, so they do not fix a pose.
+
+    Attributes:
+        points: The marker positions received (n, 3) [m].
+    """
+
+    def __init__(self, points: Any, message: str) -> None:
+        self.points = points
+        super().__init__(message)
+
+
+class CalibrationError(IbvsYoulaError):
+    """Hand-eye calibration data cannot determine the transform (too few or degenerate motions)."""
+
+
+# --------------------------------------------------------------------------- simulation
+class SimulationDivergedError(IbvsYoulaError):
+    """A simulated quantity left its bounds (or became non-finite).
+
+    Attributes:
+        time: Simulated time at which it was detected [s].
+        quantity: Name of the quantity, e.g. ``"dq"`` or ``"features"``.
+        value: The offending value (array or scalar).
+        bound: The bound that was exceeded.
+        partial: Whatever partial result the simulator could attach (or None).
+    """
+
+    def __init__(
+        self,
+        time: float,
+        quantity: str,
+        value: Any,
+        bound: Any,
+        message: str,
+        partial: Any = None,
+    ) -> None:
+        self.time = time
+        self.quantity = quantity
+        self.value = value
+        self.bound = bound
+        self.partial = partial
+        super().__init__(message)

@@ -1,0 +1,1 @@
+"""URDF descriptions shipped with ibvs-youla (installed as ``ibvs_youla.urdf``)."""

@@ -35,3 +35,10 @@ def test_urdf_resources_are_importable():
 
     names = {p.name for p in importlib.resources.files("ibvs_youla.urdf").iterdir()}
     assert "__init__.py" in names
+
+
+def test_lazy_api_names_match_all():
+    import ibvs_youla
+
+    lazy = set(ibvs_youla._LAZY) | ibvs_youla._SUBMODULES
+    assert lazy | {"IbvsYoulaError", "__version__", "exceptions"} == set(ibvs_youla.__all__)

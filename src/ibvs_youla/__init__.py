@@ -1,15 +1,101 @@
 """ibvs-youla: stereo IBVS of a 6-DOF arm with feedforward and adaptive Youla control.
 
 Implements Li & Assadian's feedforward + Youla-parameterized stereo image-based
-visual servoing on Pinocchio rigid-body dynamics. See docs/conventions.md for
+visual servoing on Pinocchio rigid-body dynamics. The data flows
+model (arm, camera) -> estimation (stereo pose, hand-eye) -> control (inner,
+feedforward, outer) -> simulation -> analysis. See docs/conventions.md for
 frames, units and feature ordering.
+
+Public names are imported lazily (PEP 562), so ``import ibvs_youla`` stays cheap
+and loads Pinocchio or python-control only when a name that needs them is used.
 """
 
 from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 from . import exceptions
 from .exceptions import IbvsYoulaError
 
 __version__ = "0.1.0"
 
-__all__ = ["IbvsYoulaError", "__version__", "exceptions"]
+# public name -> module that defines it (relative to this package)
+_LAZY: dict[str, str] = {
+    # model
+    "Arm": ".model.arm",
+    "StereoCamera": ".model.camera",
+    "PinholeCamera": ".model.camera",
+    "Visibility": ".model.camera",
+    # estimation
+    "EyeInHand": ".estimation.eye_in_hand",
+    "rigid_transform_from_points": ".estimation.stereo_pose",
+    "calibrate_hand_eye": ".estimation.hand_eye",
+    # control
+    "InnerLoopDesign": ".control.inner",
+    "FeedforwardDesign": ".control.feedforward",
+    "OuterLoopDesign": ".control.outer",
+    "SingularValuePolicy": ".control.outer",
+    # simulation
+    "Scenario": ".scenarios",
+    "simulate": ".simulation.simulate",
+    "SimulationResult": ".simulation.results",
+}
+_SUBMODULES = {"scenarios", "model", "estimation", "control", "simulation", "analysis"}
+
+__all__ = [
+    "Arm",
+    "EyeInHand",
+    "FeedforwardDesign",
+    "IbvsYoulaError",
+    "InnerLoopDesign",
+    "OuterLoopDesign",
+    "PinholeCamera",
+    "Scenario",
+    "SimulationResult",
+    "SingularValuePolicy",
+    "StereoCamera",
+    "Visibility",
+    "__version__",
+    "analysis",
+    "calibrate_hand_eye",
+    "control",
+    "estimation",
+    "exceptions",
+    "model",
+    "rigid_transform_from_points",
+    "scenarios",
+    "simulate",
+    "simulation",
+]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+        globals()[name] = value
+        return value
+    if name in _SUBMODULES:
+        module = importlib.import_module(f".{name}", __name__)
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module 'ibvs_youla' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from . import scenarios
+    from .control.feedforward import FeedforwardDesign
+    from .control.inner import InnerLoopDesign
+    from .control.outer import OuterLoopDesign, SingularValuePolicy
+    from .estimation.eye_in_hand import EyeInHand
+    from .estimation.hand_eye import calibrate_hand_eye
+    from .estimation.stereo_pose import rigid_transform_from_points
+    from .model.arm import Arm
+    from .model.camera import PinholeCamera, StereoCamera, Visibility
+    from .scenarios import Scenario
+    from .simulation.results import SimulationResult
+    from .simulation.simulate import simulate

@@ -1,0 +1,352 @@
+"""Stereo and pinhole camera models: projection, triangulation, interaction matrices, visibility.
+
+Implements Sec. 4.1 (Eq. 5-11) and the inverse stereo map of Appendix C (Eq. C6-C8). Image
+coordinates are metres on the sensor, measured from the principal point (the paper's k = 0,
+u0 = v0 = 0 form of Eq. 9-10); pixels enter only through the intrinsic matrix of Eq. (6)
+(`to_pixels` / `from_pixels`). Pixel coordinates run from the top-left sensor corner: pixel i
+covers [i, i + 1). The stereo frame {C} sits mid-baseline with the left lens at x = +b/2
+(ERRATA 12): u_l = F (X - b/2) / Z, u_r = F (X + b/2) / Z, v = F Y / Z, disparity F b / Z.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._validation import as_array, non_negative, one_of, positive
+from ..exceptions import InvalidDisparityError, InvalidParameterError, PointBehindCameraError
+
+__all__ = ["PinholeCamera", "StereoCamera", "Visibility"]
+
+MIN_ABS_DEPTH = 1e-9  # [m] no projection for |Z_C| below this (division by ~0), even for virtual points
+MAX_ABS_DEPTH = 1e9  # [m] a disparity whose depth |F b / d| would exceed this counts as zero
+
+# ZED resolution modes (ZED SDK names): (width [px], height [px], frame rates [Hz]); ERRATA 15.
+ZED_MODES: dict[str, tuple[int, int, tuple[int, ...]]] = {
+    "HD2K": (2208, 1242, (15,)),
+    "HD1080": (1920, 1080, (15, 30)),
+    "HD720": (1280, 720, (15, 30, 60)),
+    "VGA": (672, 376, (15, 30, 60, 100)),
+}
+# Real ZED 2 pixel pitch per mode [m]: 2 um native, 2x2 binned at 720p, 4x4 at VGA (ERRATA 15).
+_ZED2_PITCH = {"HD2K": 2e-6, "HD1080": 2e-6, "HD720": 4e-6, "VGA": 8e-6}
+
+
+def _zed_intrinsics(preset: str, mode: str, frame_rate: float | None) -> dict:
+    """Keyword arguments of the ZED presets (see `StereoCamera.zed2`)."""
+    one_of(preset, "preset", ("paper", "zed2"))
+    one_of(mode, "mode", tuple(ZED_MODES))
+    width_px, height_px, rates = ZED_MODES[mode]
+    if frame_rate is None:
+        frame_rate = float(max(rates))
+    elif frame_rate not in rates:
+        raise InvalidParameterError("frame_rate", frame_rate, f"one of {rates} fps in mode {mode!r}")
+    if preset == "paper":  # Table A3: the sensor extent is fixed, the mode sets the pixel count
+        pitch = 5.23e-3 / width_px
+        return dict(focal_length=2.8e-3, sensor_width=5.23e-3, sensor_height=2.94e-3, pixel_pitch=pitch,
+                    depth_range=(0.5, 25.0), frame_rate=float(frame_rate), name=f"paper-{mode}")
+    pitch = _ZED2_PITCH[mode]  # the mode's active area is its pixel count times its pitch
+    return dict(focal_length=2.12e-3, sensor_width=width_px * pitch, sensor_height=height_px * pitch,
+                pixel_pitch=pitch, depth_range=(0.3, 20.0), frame_rate=float(frame_rate), name=f"zed2-{mode}")
+
+
+def _check_depth(Z: np.ndarray, allow_behind: bool) -> None:
+    """Raise PointBehindCameraError for Z <= 0 (unless allow_behind) and always for |Z| < MIN_ABS_DEPTH."""
+    if (np.abs(Z).min() if allow_behind else Z.min()) >= MIN_ABS_DEPTH:
+        return
+    bad = np.flatnonzero(np.abs(Z) < MIN_ABS_DEPTH if allow_behind else Z < MIN_ABS_DEPTH)
+    valid = f"|Z_C| >= {MIN_ABS_DEPTH:g} m" if allow_behind else (
+        f"Z_C >= {MIN_ABS_DEPTH:g} m (in front of the camera); pass allow_behind=True for the "
+        "paper's virtual points (ERRATA 13)")
+    raise PointBehindCameraError(
+        bad, Z[bad], f"points {bad.tolist()} have depth Z_C = {Z[bad].tolist()} m; valid depths are {valid}")
+
+
+def _points(P: object, name: str, width: int = 3) -> np.ndarray:
+    """Validate an (n, width) array (a single (width,) row is promoted to (1, width))."""
+    arr = as_array(P, name)
+    if arr.ndim == 1 and arr.shape == (width,):
+        arr = arr[None, :]
+    return as_array(arr, name, (None, width))
+
+
+@dataclass(frozen=True, eq=False)
+class Visibility:
+    """Per-point visibility flags (ERRATA 13: report depth sign, field of view and depth range).
+
+    Attributes:
+        in_front: Z_C > 0 (n,).
+        in_fov: in front and inside the sensor extent of every lens (n,).
+        in_depth_range: depth_range[0] <= Z_C <= depth_range[1] (n,).
+        depth: Z_C of each point (n,) [m].
+    """
+
+    in_front: np.ndarray
+    in_fov: np.ndarray
+    in_depth_range: np.ndarray
+    depth: np.ndarray
+
+    @property
+    def visible(self) -> np.ndarray:
+        """Per point: in front, in view and within the depth range (n,)."""
+        return self.in_front & self.in_fov & self.in_depth_range
+
+    @property
+    def all_visible(self) -> bool:
+        """True when every point is visible."""
+        return bool(self.visible.all())
+
+    def describe(self) -> str:
+        """One line per point, e.g. for a run report."""
+        return "\n".join(
+            f"point {i}: Z_C = {z:+.3f} m, in front {f}, in FOV {v}, in depth range {d}"
+            for i, (z, f, v, d) in enumerate(zip(self.depth, self.in_front, self.in_fov, self.in_depth_range,
+                                                 strict=True)))
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Sensor:
+    """Intrinsics shared by one lens of either camera (Eq. 6), all keyword-only."""
+
+    focal_length: float  # F [m]
+    sensor_width: float  # active sensor extent along u [m]
+    sensor_height: float  # along v [m]
+    pixel_pitch: float  # square pixels [m]
+    skew: float = 0.0  # k of Eq. (6) [px]
+    principal_point: tuple[float, float] | None = None  # (u0, v0) [px]; None -> sensor centre
+    depth_range: tuple[float, float] = (0.5, 25.0)  # [m], Table A3
+    frame_rate: float = 30.0  # [Hz]
+    name: str = field(default="custom", compare=False)
+
+    def __post_init__(self) -> None:
+        for key in ("focal_length", "sensor_width", "sensor_height", "pixel_pitch", "frame_rate"):
+            object.__setattr__(self, key, positive(getattr(self, key), key))
+        if not np.isfinite(self.skew):
+            raise InvalidParameterError("skew", self.skew, "a finite number [px]")
+        object.__setattr__(self, "skew", float(self.skew))
+        pp = self.principal_point
+        if pp is None:
+            pp = (0.5 * self.sensor_width / self.pixel_pitch, 0.5 * self.sensor_height / self.pixel_pitch)
+        if np.shape(pp) != (2,) or not np.all(np.isfinite(pp)):
+            raise InvalidParameterError("principal_point", pp, "None or two finite numbers (u0, v0) [px]")
+        object.__setattr__(self, "principal_point", (float(pp[0]), float(pp[1])))
+        if np.shape(self.depth_range) != (2,):
+            raise InvalidParameterError("depth_range", self.depth_range, "(min, max) with 0 <= min < max [m]")
+        lo, hi = (non_negative(v, "depth_range") for v in self.depth_range)
+        if not lo < hi:
+            raise InvalidParameterError("depth_range", self.depth_range, "(min, max) with 0 <= min < max [m]")
+        object.__setattr__(self, "depth_range", (lo, hi))
+
+    @property
+    def resolution(self) -> tuple[int, int]:
+        """(width, height) [px], the sensor extent over the pixel pitch, rounded."""
+        return round(self.sensor_width / self.pixel_pitch), round(self.sensor_height / self.pixel_pitch)
+
+    @property
+    def field_of_view(self) -> tuple[float, float]:
+        """(horizontal, vertical) angle of view [rad] of one lens about a centred principal point."""
+        F = self.focal_length
+        return 2 * np.arctan(0.5 * self.sensor_width / F), 2 * np.arctan(0.5 * self.sensor_height / F)
+
+    def intrinsic_matrix(self) -> np.ndarray:
+        """K of Eq. (6) in pixels: [[F/p, k, u0], [0, F/p, v0], [0, 0, 1]] (maps X/Z, Y/Z to pixels)."""
+        f_px = self.focal_length / self.pixel_pitch
+        u0, v0 = self.principal_point
+        return np.array([[f_px, self.skew, u0], [0.0, f_px, v0], [0.0, 0.0, 1.0]])
+
+    def _u_to_px(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return u / self.pixel_pitch + self.skew * v / self.focal_length + self.principal_point[0]
+
+    def _u_from_px(self, u_px: np.ndarray, v: np.ndarray) -> np.ndarray:
+        return (u_px - self.principal_point[0] - self.skew * v / self.focal_length) * self.pixel_pitch
+
+    def _in_extent(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        u_px, v_px = self._u_to_px(u, v), v / self.pixel_pitch + self.principal_point[1]
+        return ((u_px >= 0) & (u_px <= self.sensor_width / self.pixel_pitch)
+                & (v_px >= 0) & (v_px <= self.sensor_height / self.pixel_pitch))
+
+    def _visibility(self, P_C: np.ndarray, lens_x: tuple[float, ...]) -> Visibility:
+        X, Y, Z = P_C.T
+        front = Z >= MIN_ABS_DEPTH
+        iz = np.where(front, self.focal_length / np.where(front, Z, 1.0), 0.0)
+        fov = front.copy()
+        for x0 in lens_x:
+            fov &= self._in_extent((X - x0) * iz, Y * iz)
+        depth_ok = (Z >= self.depth_range[0]) & (Z <= self.depth_range[1])
+        flags = [a.copy() for a in (front, fov, depth_ok, Z)]
+        for a in flags:
+            a.flags.writeable = False
+        return Visibility(*flags)
+
+    @staticmethod
+    def _rows(F: float, X: np.ndarray, Y: np.ndarray, iz: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Rows du/d[v; w] (n, 6) of u = F (X - x0) / Z for a lens at x0 (derivation in the callers)."""
+        z = np.zeros_like(iz)
+        return np.stack([-F * iz, z, u * iz, u * Y * iz, -F - u * X * iz, F * Y * iz], axis=-1)
+
+    @staticmethod
+    def _v_rows(F: float, X: np.ndarray, Y: np.ndarray, iz: np.ndarray, v: np.ndarray) -> np.ndarray:
+        z = np.zeros_like(iz)
+        return np.stack([z, -F * iz, v * iz, F + v * Y * iz, -v * X * iz, -F * X * iz], axis=-1)
+
+
+@dataclass(frozen=True, kw_only=True)
+class StereoCamera(_Sensor):
+    """Rectified stereo camera of Sec. 4.1 (Eq. 9-11 with ERRATA 12): two identical lenses b apart.
+
+    Construct with keywords, or use the `zed2` preset. Twists are [v; w] in {C}.
+    """
+
+    baseline: float  # b [m]
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        object.__setattr__(self, "baseline", positive(self.baseline, "baseline", unit="[m]"))
+
+    @classmethod
+    def zed2(
+        cls, preset: str = "paper", mode: str = "HD720", frame_rate: float | None = None
+    ) -> StereoCamera:
+        """ZED stereo camera presets (120 mm baseline).
+
+        Args:
+            preset: ``"paper"``: Table A3 (F = 2.8 mm, sensor 5.23 x 2.94 mm, 86.09 x 55.35 deg,
+                0.5-25 m; the original ZED's optics, ERRATA 15), pixel pitch = 5.23 mm / width [px].
+                ``"zed2"``: the real ZED 2 (F = 2.12 mm; 2 um pixels at HD2K/HD1080, 4 um binned at
+                HD720, 8 um at VGA; active area = resolution x pitch, e.g. 101 x 68 deg at HD720 without
+                distortion, against ~110 x 70 deg for the full lens; 0.3-20 m, Stereolabs datasheet).
+            mode: ``"HD2K"`` 2208x1242, ``"HD1080"`` 1920x1080, ``"HD720"`` 1280x720, ``"VGA"`` 672x376.
+            frame_rate: One of the mode's rates [Hz] (HD2K 15; HD1080 15/30; HD720 15/30/60;
+                VGA 15/30/60/100); None picks the highest.
+        """
+        return cls(baseline=0.12, **_zed_intrinsics(preset, mode, frame_rate))
+
+    def project(self, P_C: object, allow_behind: bool = False) -> np.ndarray:
+        """Stereo projection M of Eq. (11): rows [u_l, u_r, v] [m on the sensor] of points (n, 3) [m].
+
+        Raises:
+            PointBehindCameraError: Z_C <= 0 (unless allow_behind, the virtual points of ERRATA 13),
+                and always |Z_C| < MIN_ABS_DEPTH.
+        """
+        return self._project(_points(P_C, "P_C"), allow_behind)
+
+    def _project(self, P_C: np.ndarray, allow_behind: bool) -> np.ndarray:
+        X, Y, Z = P_C.T
+        _check_depth(Z, allow_behind)
+        iz = self.focal_length / Z
+        hb = 0.5 * self.baseline
+        return np.stack(((X - hb) * iz, (X + hb) * iz, Y * iz), axis=-1)
+
+    def triangulate(self, p: object, allow_behind: bool = False) -> np.ndarray:
+        """Inverse stereo map M^-1 of Eq. (C6)-(C8): points (n, 3) [m] from rows [u_l, u_r, v].
+
+        Raises:
+            InvalidDisparityError: disparity u_r - u_l <= 0 (unless allow_behind), and always when it
+                is ~0 (|F b / d| > MAX_ABS_DEPTH).
+        """
+        return self._triangulate(_points(p, "p"), allow_behind)
+
+    def _triangulate(self, p: np.ndarray, allow_behind: bool) -> np.ndarray:
+        d = p[:, 1] - p[:, 0]  # disparity [m]
+        d_min = self.focal_length * self.baseline / MAX_ABS_DEPTH
+        if (np.abs(d).min() if allow_behind else d.min()) < d_min:
+            bad = np.flatnonzero(np.abs(d) < d_min if allow_behind else d < d_min)
+            valid = f"|u_r - u_l| >= {d_min:.3g} m" if allow_behind else f"u_r - u_l >= {d_min:.3g} m"
+            raise InvalidDisparityError(bad, d[bad], f"points {bad.tolist()} have disparity u_r - u_l = "
+                                        f"{d[bad].tolist()} m; valid disparities are {valid}")
+        s = self.baseline / d
+        return np.stack((0.5 * s * (p[:, 0] + p[:, 1]), s * p[:, 2], self.focal_length * s), axis=-1)
+
+    def interaction_matrix(self, P_C: object, allow_behind: bool = False) -> np.ndarray:
+        """d[u_l, u_r, v]/d[v; w] (3n, 6), point-major, for static points seen from a moving camera.
+
+        With dP_C/dt = -v - w x P_C = [-I, [P_C]x] [v; w] and u_l = F (X - b/2) / Z (ERRATA 12), the
+        u rows are [-F/Z, 0, u/Z, u Y/Z, -F - u X/Z, F Y/Z] (u = u_l or u_r) and the v row is
+        [0, -F/Z, v/Z, F + v Y/Z, -v X/Z, -F X/Z]: the classical point rows with the lens offset kept.
+        """
+        return self._interaction(_points(P_C, "P_C"), allow_behind)
+
+    def _interaction(self, P_C: np.ndarray, allow_behind: bool) -> np.ndarray:
+        X, Y, Z = P_C.T
+        _check_depth(Z, allow_behind)
+        F, hb, iz = self.focal_length, 0.5 * self.baseline, 1.0 / Z
+        L = np.stack((self._rows(F, X, Y, iz, F * (X - hb) * iz), self._rows(F, X, Y, iz, F * (X + hb) * iz),
+                      self._v_rows(F, X, Y, iz, F * Y * iz)), axis=1)
+        return L.reshape(-1, 6)
+
+    def visibility(self, P_C: object) -> Visibility:
+        """Visibility of points (n, 3) [m]: in front, in both lenses' extents, within depth_range."""
+        hb = 0.5 * self.baseline
+        return self._visibility(_points(P_C, "P_C"), (hb, -hb))
+
+    def to_pixels(self, p: object) -> np.ndarray:
+        """Rows [u_l, u_r, v] [m] -> [u_l, u_r, v] [px] through K of Eq. (6) (both lenses share K)."""
+        p = _points(p, "p")
+        v = p[:, 2]
+        return np.stack((self._u_to_px(p[:, 0], v), self._u_to_px(p[:, 1], v),
+                         v / self.pixel_pitch + self.principal_point[1]), axis=-1)
+
+    def from_pixels(self, p_px: object) -> np.ndarray:
+        """Inverse of `to_pixels`: rows [u_l, u_r, v] [px] -> [m on the sensor]."""
+        p_px = _points(p_px, "p_px")
+        v = (p_px[:, 2] - self.principal_point[1]) * self.pixel_pitch
+        return np.stack((self._u_from_px(p_px[:, 0], v), self._u_from_px(p_px[:, 1], v), v), axis=-1)
+
+
+@dataclass(frozen=True, kw_only=True)
+class PinholeCamera(_Sensor):
+    """Monocular pinhole camera at the origin of its frame: u = F X / Z, v = F Y / Z (Eq. 5-6).
+
+    Three points do not fix its pose (Sec. 3, P4P); the depth of a point must be given to back-project.
+    """
+
+    @classmethod
+    def zed2(
+        cls, preset: str = "paper", mode: str = "HD720", frame_rate: float | None = None
+    ) -> PinholeCamera:
+        """One lens of `StereoCamera.zed2` (same arguments), placed at the origin of its frame."""
+        return cls(**_zed_intrinsics(preset, mode, frame_rate))
+
+    def project(self, P_C: object, allow_behind: bool = False) -> np.ndarray:
+        """Rows [u, v] [m on the sensor] of points (n, 3) [m]; depth rules as `StereoCamera.project`."""
+        X, Y, Z = _points(P_C, "P_C").T
+        _check_depth(Z, allow_behind)
+        iz = self.focal_length / Z
+        return np.stack((X * iz, Y * iz), axis=-1)
+
+    def back_project(self, p: object, Z: object, allow_behind: bool = False) -> np.ndarray:
+        """Points (n, 3) [m] from rows [u, v] [m] and their depths Z (n,) [m]: X = u Z / F, Y = v Z / F."""
+        p = _points(p, "p", 2)
+        Z = as_array(Z, "Z")
+        Z = np.full(p.shape[0], float(Z)) if Z.ndim == 0 else as_array(Z, "Z", (p.shape[0],))
+        _check_depth(Z, allow_behind)
+        return np.column_stack((p * (Z / self.focal_length)[:, None], Z))
+
+    def interaction_matrix(self, P_C: object, allow_behind: bool = False) -> np.ndarray:
+        """Classical IBVS point interaction matrix (2n, 6) in sensor metres, twist [v; w] in {C}.
+
+        Rows [-F/Z, 0, u/Z, u Y/Z, -F - u X/Z, F Y/Z] and [0, -F/Z, v/Z, F + v Y/Z, -v X/Z, -F X/Z],
+        i.e. F times the normalised-coordinate matrix of Chaumette & Hutchinson (2006).
+        """
+        X, Y, Z = _points(P_C, "P_C").T
+        _check_depth(Z, allow_behind)
+        F, iz = self.focal_length, 1.0 / Z
+        L = np.stack((self._rows(F, X, Y, iz, F * X * iz), self._v_rows(F, X, Y, iz, F * Y * iz)), axis=1)
+        return L.reshape(-1, 6)
+
+    def visibility(self, P_C: object) -> Visibility:
+        """Visibility of points (n, 3) [m]: in front, inside the sensor extent, within depth_range."""
+        return self._visibility(_points(P_C, "P_C"), (0.0,))
+
+    def to_pixels(self, p: object) -> np.ndarray:
+        """Rows [u, v] [m] -> [px] through K of Eq. (6)."""
+        p = _points(p, "p", 2)
+        v_px = p[:, 1] / self.pixel_pitch + self.principal_point[1]
+        return np.stack((self._u_to_px(p[:, 0], p[:, 1]), v_px), axis=-1)
+
+    def from_pixels(self, p_px: object) -> np.ndarray:
+        """Inverse of `to_pixels`: rows [u, v] [px] -> [m on the sensor]."""
+        p_px = _points(p_px, "p_px", 2)
+        v = (p_px[:, 1] - self.principal_point[1]) * self.pixel_pitch
+        return np.stack((self._u_from_px(p_px[:, 0], v), v), axis=-1)

@@ -1,0 +1,83 @@
+"""Hand-eye calibration AX = XB (Sec. 4.3, Eq. 18-20) by Park & Martin (1994)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from ibvs_youla import calibrate_hand_eye
+from ibvs_youla._geometry import inverse_pose, make_pose, pose_error
+from ibvs_youla.exceptions import CalibrationError, InvalidArrayError
+
+
+def random_pose(rng, angle=1.0, scale=0.5):
+    return make_pose(pin.exp3(rng.normal(size=3) * angle), rng.normal(size=3) * scale)
+
+
+def motions(rng, X, n):
+    """Flange motions A_i and the camera motions B_i = X^-1 A_i X they induce (X = T_E_C)."""
+    A = np.array([random_pose(rng) for _ in range(n)])
+    return A, np.array([inverse_pose(X) @ a @ X for a in A])
+
+
+@pytest.mark.parametrize("n", [2, 3, 20])
+def test_recovers_random_hand_eye_transforms(n):
+    rng = np.random.default_rng(n)
+    for _ in range(50):
+        X = random_pose(rng, angle=2.0)
+        A, B = motions(rng, X, n)
+        X_est = calibrate_hand_eye(A, B)
+        assert np.abs(X_est - X).max() <= 1e-9
+        assert max(np.abs(a @ X_est - X_est @ b).max() for a, b in zip(A, B, strict=True)) <= 1e-9
+
+
+def test_recovers_the_irb4600_default_rz_pi():
+    """ERRATA 2: T_E_C = Rz(pi), zero translation; a rotation of angle pi is the hard case for log3."""
+    rng = np.random.default_rng(1)
+    X = make_pose(pin.rpy.rpyToMatrix(0.0, 0.0, np.pi), np.zeros(3))
+    A, B = motions(rng, X, 5)
+    rot, trans = pose_error(calibrate_hand_eye(A, B), X)
+    assert rot <= 1e-12 and trans <= 1e-12
+
+
+def test_noisy_camera_motions_still_give_a_rotation():
+    rng = np.random.default_rng(2)
+    X = random_pose(rng)
+    A, B = motions(rng, X, 30)
+    B = np.array([b @ random_pose(rng, angle=0.01, scale=0.001) for b in B])  # ~0.01 rad, 1 mm noise
+    X_est = calibrate_hand_eye(A, B)
+    assert np.linalg.det(X_est[:3, :3]) == pytest.approx(1.0, abs=1e-12)
+    rot, trans = pose_error(X_est, X)
+    assert 1e-4 <= rot <= 1e-2 and 1e-4 <= trans <= 2e-2
+
+
+def test_too_few_or_degenerate_motions():
+    rng = np.random.default_rng(3)
+    X = random_pose(rng)
+    A, B = motions(rng, X, 4)
+    with pytest.raises(CalibrationError, match="received 1 motion pair"):
+        calibrate_hand_eye(A[:1], B[:1])
+    axis = np.array([0.3, -0.2, 0.9]) / np.linalg.norm([0.3, -0.2, 0.9])
+    A_par = np.array([make_pose(pin.exp3(axis * a), rng.normal(size=3)) for a in (0.3, -0.7, 1.1, 2.0)])
+    B_par = np.array([inverse_pose(X) @ a @ X for a in A_par])
+    with pytest.raises(CalibrationError, match="parallel axes"):
+        calibrate_hand_eye(A_par, B_par)
+    A_trans = np.array([make_pose(np.eye(3), rng.normal(size=3)) for _ in range(4)])  # pure translations
+    with pytest.raises(CalibrationError, match="~0"):
+        calibrate_hand_eye(A_trans, A_trans)
+
+
+def test_bad_arrays():
+    rng = np.random.default_rng(4)
+    A, B = motions(rng, random_pose(rng), 3)
+    with pytest.raises(InvalidArrayError, match=r"B: received an array of shape \(2, 4, 4\)"):
+        calibrate_hand_eye(A, B[:2])
+    bad = A.copy()
+    bad[1, 0, 0] = np.nan
+    with pytest.raises(InvalidArrayError, match="non-finite"):
+        calibrate_hand_eye(bad, B)
+    bad = A.copy()
+    bad[2, :3, :3] *= 1.1
+    with pytest.raises(InvalidArrayError, match=r"A\[2\]: received a rotation block"):
+        calibrate_hand_eye(bad, B)

@@ -1,0 +1,154 @@
+"""SimulationResult save/load round trip and ResultRecorder (partial results, growth)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ibvs_youla.exceptions import InvalidArrayError, InvalidParameterError
+from ibvs_youla.simulation.results import ResultRecorder, SimulationResult
+
+
+def _rz(angle):
+    c, s = np.cos(angle), np.sin(angle)
+    T = np.eye(4)
+    T[:2, :2] = [[c, -s], [s, c]]
+    return T
+
+
+def _fill(recorder, n, rng):
+    for k in range(n):
+        T = _rz(0.01 * k)
+        T[:3, 3] = rng.normal(size=3)
+        features = rng.normal(size=9)
+        if k == 2:
+            features[4] = np.nan  # a point behind the camera: NaN is allowed in recorded signals
+        recorder.record(
+            1e-3 * k,
+            q=rng.normal(size=6),
+            q_true=rng.normal(size=6),
+            dq=rng.normal(size=6),
+            q_ref=rng.normal(size=6),
+            q_ff=rng.normal(size=6),
+            q_fb=rng.normal(size=6),
+            tau=rng.normal(size=6),
+            features=features,
+            camera_pose=T,
+            visible=rng.random(3) > 0.5,
+        )
+        recorder.record_update_time(float(rng.random()) * 1e-4)
+
+
+def _recorder(capacity=4, metadata=None):
+    target_pose = _rz(0.3)
+    target_pose[:3, 3] = [1.0, 2.0, 3.0]
+    return ResultRecorder(np.linspace(-1e-3, 1e-3, 9), target_pose, capacity, metadata=metadata)
+
+
+def test_recorder_grows_past_capacity_and_computes_feature_error():
+    rng = np.random.default_rng(0)
+    rec = _recorder(capacity=4)
+    _fill(rec, 37, rng)  # several doublings
+    res = rec.result()
+    assert len(res) == 37 and res.update_time.shape == (37,)
+    assert res.q.shape == (37, 6) and res.camera_pose.shape == (37, 4, 4) and res.visible.dtype == bool
+    np.testing.assert_array_equal(res.t, 1e-3 * np.arange(37))
+    np.testing.assert_array_equal(res.feature_error, res.feature_target - res.features)
+    assert np.isnan(res.feature_error[2, 4])
+    assert res.metadata["status"] == "complete"
+
+
+def test_partial_result_keeps_finished_samples_and_recording_can_continue():
+    rng = np.random.default_rng(1)
+    rec = _recorder(capacity=100, metadata={"scenario": "paper-2", "controller": "ff+fb"})
+    _fill(rec, 10, rng)
+    partial = rec.result(status="diverged", extra_metadata={"error": "dq at t = 0.01 s"})
+    assert len(partial) == 10 and partial.metadata["status"] == "diverged"
+    assert partial.metadata["scenario"] == "paper-2" and partial.metadata["error"].startswith("dq")
+    q_before = partial.q.copy()
+    _fill(rec, 5, rng)  # the partial result is a copy: later samples do not leak into it
+    np.testing.assert_array_equal(partial.q, q_before)
+    assert len(rec.result()) == 15
+
+
+def test_save_load_round_trip_is_exact_with_and_without_suffix(tmp_path):
+    rng = np.random.default_rng(2)
+    meta = {
+        "scenario": "physical-1",
+        "controller": "fb",
+        "adaptive": True,
+        "rates_hz": (1000.0, 100.0),  # stored as a list (JSON)
+        "gain": np.float64(0.1) / 3,  # numpy scalars become exact Python floats
+        "settings": {"zeta": 10.0, "q": np.array([0.1, 1 / 3])},
+    }
+    rec = _recorder(metadata=meta)
+    _fill(rec, 11, rng)
+    res = rec.result()
+    for name in ("run", "run.npz"):
+        written = res.save(tmp_path / name)
+        assert written == tmp_path / "run.npz"
+        back = SimulationResult.load(tmp_path / name)
+        for field in (
+            "t",
+            "q",
+            "q_true",
+            "dq",
+            "q_ref",
+            "q_ff",
+            "q_fb",
+            "tau",
+            "features",
+            "feature_target",
+            "feature_error",
+            "camera_pose",
+            "camera_pose_target",
+            "visible",
+            "update_time",
+        ):
+            np.testing.assert_array_equal(getattr(back, field), getattr(res, field), err_msg=field)
+            assert getattr(back, field).dtype == getattr(res, field).dtype
+        assert back.metadata == res.metadata
+    assert res.metadata["rates_hz"] == [1000.0, 100.0]
+    assert res.metadata["gain"] == 0.1 / 3
+    assert res.metadata["settings"]["q"] == [0.1, 1 / 3]
+
+
+def test_convenience_properties():
+    rng = np.random.default_rng(3)
+    rec = _recorder()
+    _fill(rec, 3, rng)
+    res = rec.result()
+    np.testing.assert_array_equal(res.final_feature_error, res.feature_error[-1])
+    assert res.duration == pytest.approx(2e-3, abs=1e-15)
+    last = res.camera_pose[-1]
+    mm, deg = res.final_pose_error()
+    assert mm == pytest.approx(1000 * np.linalg.norm(last[:3, 3] - [1.0, 2.0, 3.0]), rel=1e-12)
+    assert deg == pytest.approx(np.degrees(0.3 - 0.02), abs=1e-9)  # Rz(0.02) vs Rz(0.3)
+
+
+def test_bad_input_raises():
+    with pytest.raises(InvalidParameterError, match="capacity"):
+        _recorder(capacity=0)
+    with pytest.raises(InvalidParameterError, match="metadata"):
+        _recorder(metadata={"bad": object()})
+    with pytest.raises(InvalidArrayError, match="camera_pose_target"):
+        ResultRecorder(np.zeros(9), np.ones((4, 4)), 3)
+    res = _recorder().result()
+    assert len(res) == 0
+    with pytest.raises(InvalidArrayError, match="no samples"):
+        res.final_feature_error  # noqa: B018
+    with pytest.raises(InvalidParameterError, match="path"):
+        SimulationResult.load("/nonexistent/run")
+    fields = {f: np.zeros((2, 6)) for f in ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau")}
+    with pytest.raises(InvalidArrayError, match="features"):
+        SimulationResult(
+            t=np.zeros(2),
+            **fields,
+            features=np.zeros((2, 8)),
+            feature_target=np.zeros(9),
+            feature_error=np.zeros((2, 9)),
+            camera_pose=np.tile(np.eye(4), (2, 1, 1)),
+            camera_pose_target=np.eye(4),
+            visible=np.ones((2, 3), bool),
+            update_time=np.zeros(0),
+        )

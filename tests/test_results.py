@@ -152,3 +152,11 @@ def test_bad_input_raises():
             visible=np.ones((2, 3), bool),
             update_time=np.zeros(0),
         )
+
+
+def test_software_versions_are_json_strings():
+    from ibvs_youla.simulation.results import software_versions
+
+    versions = software_versions()
+    assert set(versions) == {"python", "ibvs-youla", "numpy", "scipy", "pin", "control"}
+    assert versions["numpy"] == np.__version__

@@ -20,7 +20,7 @@ import numpy as np
 from .._validation import as_array, as_pose
 from ..exceptions import InvalidArrayError, InvalidParameterError
 
-__all__ = ["ResultRecorder", "SimulationResult"]
+__all__ = ["ResultRecorder", "SimulationResult", "software_versions"]
 
 FORMAT_VERSION = 1
 
@@ -38,6 +38,20 @@ _SAMPLE_SHAPES: dict[str, tuple[int | None, ...]] = {
     "camera_pose": (4, 4),
     "visible": (3,),
 }
+
+
+def software_versions() -> dict[str, str]:
+    """Versions of Python and of the packages a result depends on, for ``metadata["versions"]``."""
+    import platform
+    from importlib import metadata as importlib_metadata
+
+    versions = {"python": platform.python_version()}
+    for dist in ("ibvs-youla", "numpy", "scipy", "pin", "control"):
+        try:
+            versions[dist] = importlib_metadata.version(dist)
+        except importlib_metadata.PackageNotFoundError:
+            versions[dist] = "not installed"
+    return versions
 
 
 def _json_default(obj: Any) -> Any:

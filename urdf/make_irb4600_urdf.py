@@ -215,14 +215,16 @@ def build_urdf() -> str:
         out += [
             f"  <!-- joint_{i}: {placed}, then Rz(theta_offset {DH_ROWS[i - 1][3]} deg) of row {i}"
             f" (ERRATA 1). Limits: Table A2"
-            f" [{Q_MIN_DEG[i - 1]}, {Q_MAX_DEG[i - 1]}] deg; velocity {DQ_MAX_DEG_S[i - 1]} deg/s (ABB spec via"
-            f" ROS-Industrial, ERRATA 16); effort {TORQUE_LIMITS[i - 1]} N m (derived, README). -->",
+            f" [{Q_MIN_DEG[i - 1]}, {Q_MAX_DEG[i - 1]}] deg; velocity {DQ_MAX_DEG_S[i - 1]} deg/s"
+            f" (ABB spec via ROS-Industrial, ERRATA 16); effort {TORQUE_LIMITS[i - 1]} N m (derived,"
+            " README). -->",
             f'  <joint name="joint_{i}" type="revolute">',
             f'    <parent link="{"base_link" if i == 1 else f"link_{i - 1}"}"/>',
             f'    <child link="{name}"/>',
             f"    {_origin(joint_origin(i))}",
             '    <axis xyz="0 0 1"/>',
-            f'    <limit lower="{_f(lo)}" upper="{_f(hi)}" velocity="{_f(vel)}" effort="{_f(TORQUE_LIMITS[i - 1])}"/>',
+            f'    <limit lower="{_f(lo)}" upper="{_f(hi)}" velocity="{_f(vel)}"'
+            f' effort="{_f(TORQUE_LIMITS[i - 1])}"/>',
             "  </joint>",
         ]
     d6, a6, alpha6, _ = DH_ROWS[5]
@@ -236,7 +238,8 @@ def build_urdf() -> str:
         "  </joint>",
     ]
     camera = ("box", CAMERA_BOX, (0.0, 0.0, 0.0))
-    out += _link("camera", camera, CAMERA_MASS, "camera = paper {C}: ZED 2, Table A3 mass, box inertia", "dark_grey")
+    note = "camera = paper {C}: ZED 2, Table A3 mass, box inertia"
+    out += _link("camera", camera, CAMERA_MASS, note, "dark_grey")
     out += [
         "  <!-- T_E_C = Rz(pi), zero translation (ERRATA 2) -->",
         '  <joint name="flange-camera" type="fixed">',
@@ -304,8 +307,10 @@ def main(argv: Sequence[str] | None = None) -> None:
         required = derive_torque_limits()
         current = np.array(TORQUE_LIMITS) / (GEAR_RATIO * K_M)
         for i, (req, lim, amp) in enumerate(zip(required, TORQUE_LIMITS, current, strict=True)):
-            print(f"joint {i + 1}: required {req:8.1f} N m -> limit {round_up_2sig(req):7.0f} "
-                  f"(file {lim:7.0f}), r*K_m*I needs I = {amp:6.1f} A")
+            print(
+                f"joint {i + 1}: required {req:8.1f} N m -> limit {round_up_2sig(req):7.0f} "
+                f"(file {lim:7.0f}), r*K_m*I needs I = {amp:6.1f} A"
+            )
         return
     args.out.write_text(build_urdf())
     print(f"wrote {args.out}")

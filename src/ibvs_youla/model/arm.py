@@ -1,0 +1,354 @@
+"""A 6-DOF arm with an eye-in-hand camera: kinematics (Eq. 12-28) and dynamics (Eq. 29-32) on Pinocchio.
+
+:class:`Arm` wraps a private copy of a Pinocchio model plus the frames the paper uses:
+the flange {E} and the camera {C} (docs/conventions.md). Dynamics follow Eq. (29)::
+
+    (D(q) + J) ddq + (C(q, dq) + B / r) dq + g(q) = u
+
+The actuator terms J (armature) and B / r (viscous damping) come from Table A4 through
+:class:`ActuatorParameters`. Pinocchio's CRBA, RNEA and ABA include ``model.armature``;
+they ignore ``model.damping``, which is therefore left at zero and the damping torque
+``damping * dq`` is added here.
+
+Hot-path methods (poses, Jacobians, dynamics) validate their inputs cheaply: a float64
+array of the right shape whose entries are finite passes straight through; anything
+else goes through :func:`ibvs_youla._validation.as_array` and raises
+:class:`~ibvs_youla.exceptions.InvalidArrayError` if it is not valid.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import astuple, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from .._validation import as_array, as_pose, non_negative, one_of, positive
+from ..exceptions import InvalidArrayError, ModelLoadError, UnreachablePoseError
+from ._resources import check_chain, frame_id, load_urdf_model, urdf_path
+from .ik import SphericalWristParameters, closed_form_branches, numerical_branches, select_branches
+
+__all__ = ["ActuatorParameters", "Arm"]
+
+_N = 6
+_IK_TOL = 1e-9  # max |FK(q) - T| accepted for an IK solution (rotation entries and metres)
+_IK_SEEDS = 24  # random seeds of the numerical IK (besides q_near)
+
+
+@dataclass(frozen=True)
+class ActuatorParameters:
+    """Motor and gear of Table A4, and their joint-side terms in Eq. (29).
+
+    Attributes:
+        J_a: Motor armature inertia [kg m^2].
+        J_g: Gear inertia [kg m^2].
+        r: Gear ratio [-].
+        B_m: Motor viscous damping [N m s/rad].
+    """
+
+    J_a: float = 0.09847
+    J_g: float = 0.05
+    r: float = 200.0
+    B_m: float = 0.06
+
+    def __post_init__(self) -> None:
+        positive(self.r, "r")
+        for name in ("J_a", "J_g", "B_m"):
+            non_negative(getattr(self, name), name)
+
+    def joint_terms(self, mapping: str = "paper") -> tuple[float, float]:
+        """(armature [kg m^2], damping [N m s/rad]) seen at each joint.
+
+        ``"paper"`` reads Eq. (29) literally: J = J_a + J_g added to D(q), damping B / r
+        with B = B_m. ``"reflected"`` refers motor-side terms through the gear
+        (Spong, Hutchinson & Vidyasagar, independent joint control): r^2 (J_a + J_g) and
+        r^2 B_m. With Table A4 the two differ by r^3 = 8e6 in damping and r^2 = 4e4 in
+        armature (0.148 vs 5939 kg m^2, the latter dwarfing the link inertias).
+        """
+        one_of(mapping, "actuator", ("paper", "reflected"))
+        if mapping == "paper":
+            return self.J_a + self.J_g, self.B_m / self.r
+        return self.r**2 * (self.J_a + self.J_g), self.r**2 * self.B_m
+
+
+def _read_only(x: Any) -> np.ndarray:
+    arr = np.array(x, dtype=float)
+    arr.setflags(write=False)
+    return arr
+
+
+class Arm:
+    """A 6-DOF serial arm carrying a camera, with the kinematics and dynamics the paper uses.
+
+    Build it with :meth:`irb4600`, :meth:`from_urdf`, or ``Arm(model, camera_frame=...,
+    flange_frame=..., armature=..., damping=..., name=...)`` from a Pinocchio model of six
+    revolute joints in series (same meaning as in :meth:`from_urdf`). The model is copied,
+    never mutated; do not mutate :attr:`model` either (use :meth:`with_inertia_scale`).
+
+    Attributes:
+        model: Pinocchio model (``model.armature`` set, ``model.damping`` zero).
+        name: Human-readable name.
+        nq: Number of joints (6).
+        q_min, q_max: Joint position limits (6,) [rad].
+        dq_max: Joint speed limits (6,) [rad/s].
+        tau_max: Joint torque limits (6,) [N m].
+        armature: Joint-side rotor inertia J of Eq. (29) (6,) [kg m^2].
+        damping: Joint-side viscous damping B / r of Eq. (29) (6,) [N m s/rad].
+        T_E_C: Camera pose in the flange frame (4, 4) (ERRATA 2: Rz(pi) for the IRB 4600).
+        ik_parameters: Lengths used by the closed-form IK, or None (numerical IK).
+        urdf_path: File the model was loaded from (None if built from a model).
+    """
+
+    def __init__(
+        self,
+        model: pin.Model,
+        *,
+        camera_frame: str = "camera",
+        flange_frame: str | None = None,
+        armature: Any = None,
+        damping: Any = None,
+        name: str | None = None,
+        source: Any = None,
+    ) -> None:
+        check_chain(model, source)
+        self.model = model.copy()
+        self.name = name or model.name
+        self.urdf_path = source
+        self.nq = _N
+        self.camera_frame = camera_frame
+        if flange_frame is None:
+            flange_frame = "flange" if model.existFrame("flange") else model.names[_N]
+        self.flange_frame = flange_frame
+        self._camera_id = frame_id(self.model, camera_frame, source, "camera")
+        self._flange_id = frame_id(self.model, flange_frame, source, "flange")
+        zeros = np.zeros(_N)
+        self.armature = _read_only(zeros if armature is None else as_array(armature, "armature", (_N,)))
+        self.damping = _read_only(zeros if damping is None else as_array(damping, "damping", (_N,)))
+        for label, values in (("armature", self.armature), ("damping", self.damping)):
+            if np.any(values < 0):
+                raise InvalidArrayError(label, f"{values.tolist()}", "entries >= 0")
+        self.model.armature[:] = self.armature
+        self.model.damping[:] = 0.0  # ignored by Pinocchio's dynamics; applied by this class
+        self.q_min = _read_only(self.model.lowerPositionLimit)
+        self.q_max = _read_only(self.model.upperPositionLimit)
+        self.dq_max = _read_only(self.model.velocityLimit)
+        self.tau_max = _read_only(self.model.effortLimit)
+        frames = self.model.frames
+        self.T_E_C = _read_only(
+            (frames[self._flange_id].placement.inverse() * frames[self._camera_id].placement).homogeneous
+        )
+        self._T_C_E = np.linalg.inv(self.T_E_C)
+        self._data = self.model.createData()
+        self.ik_parameters = SphericalWristParameters.identify(self.model, self._flange_id)
+        rng = np.random.default_rng(0)
+        lo, hi = np.maximum(self.q_min, -math.pi), np.minimum(self.q_max, math.pi)
+        self._ik_seeds = lo + (hi - lo) * rng.random((_IK_SEEDS, _N))
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def irb4600(cls, actuator: str = "paper") -> Arm:
+        """ABB IRB 4600-45/2.05 with a ZED 2 on the flange (urdf/abb_irb4600_45_205.urdf).
+
+        Args:
+            actuator: ``"paper"`` (literal Eq. 29: J = J_a + J_g, damping B_m / r) or
+                ``"reflected"`` (r^2 (J_a + J_g), r^2 B_m); see :class:`ActuatorParameters`.
+        """
+        armature, damping = ActuatorParameters().joint_terms(actuator)
+        arm = cls.from_urdf(
+            urdf_path("abb_irb4600_45_205.urdf"),
+            camera_frame="camera",
+            flange_frame="flange",
+            armature=np.full(_N, armature),
+            damping=np.full(_N, damping),
+        )
+        documented = SphericalWristParameters.irb4600()
+        found = arm.ik_parameters
+        if found is None or not np.allclose(astuple(found), astuple(documented), rtol=0.0, atol=1e-9):
+            raise ModelLoadError(arm.urdf_path, f"URDF geometry {found} differs from ERRATA 1 {documented}")
+        arm.ik_parameters = documented
+        arm.name = f"ABB IRB 4600-45/2.05 ({actuator} actuator)"
+        return arm
+
+    @classmethod
+    def from_urdf(
+        cls,
+        path: str | Path,
+        camera_frame: str = "camera",
+        flange_frame: str | None = None,
+        armature: Any = None,
+        damping: Any = None,
+    ) -> Arm:
+        """Load any 6-DOF serial arm; IK is closed form if its geometry is IRB 4600-like.
+
+        Args:
+            path: URDF file (fixed base; meshes are not loaded).
+            camera_frame: Frame (link) of the camera {C}, attached to the last joint.
+            flange_frame: Frame of the flange {E}; default ``"flange"`` if present, else
+                the last joint's frame.
+            armature: Joint-side rotor inertias (6,) [kg m^2]; default zeros.
+            damping: Joint-side viscous damping (6,) [N m s/rad]; default zeros.
+
+        Raises:
+            ModelLoadError: the file is missing or unparsable, is not a 6-revolute-joint
+                serial chain with limits, or lacks the frames.
+        """
+        path = Path(path)
+        model = load_urdf_model(path)
+        return cls(
+            model,
+            camera_frame=camera_frame,
+            flange_frame=flange_frame,
+            armature=armature,
+            damping=damping,
+            source=path,
+        )
+
+    def with_inertia_scale(self, factor: float) -> Arm:
+        """A new Arm whose link masses and rotational inertias are multiplied by ``factor``.
+
+        Centres of mass, armature and damping are unchanged (the camera, merged into the
+        last link by Pinocchio, is scaled too). Use it as the "true" plant when studying
+        imperfect feedback linearization (Eq. 33 computed with the nominal arm).
+        """
+        factor = positive(factor, "factor")
+        model = self.model.copy()
+        for i in range(model.njoints):
+            inertia = model.inertias[i]
+            scaled = pin.Inertia(inertia.mass * factor, inertia.lever.copy(), inertia.inertia * factor)
+            model.inertias[i] = scaled
+        arm = Arm(
+            model,
+            camera_frame=self.camera_frame,
+            flange_frame=self.flange_frame,
+            armature=self.armature,
+            damping=self.damping,
+            name=f"{self.name} (inertia x{factor:g})",
+            source=self.urdf_path,
+        )
+        if arm.ik_parameters is not None and self.ik_parameters is not None:
+            arm.ik_parameters = self.ik_parameters
+        return arm
+
+    def __repr__(self) -> str:
+        ik = "closed-form" if self.ik_parameters is not None else "numerical"
+        return f"Arm({self.name!r}, nq={self.nq}, ik={ik})"
+
+    # ------------------------------------------------------------------ input checks
+    def _vec(self, x: Any, name: str) -> np.ndarray:
+        """Fast path for valid float64 (6,) arrays; full validation otherwise."""
+        if type(x) is np.ndarray and x.shape == (_N,) and x.dtype == np.float64 and np.isfinite(x).all():
+            return x
+        return as_array(x, name, (_N,))
+
+    # ------------------------------------------------------------------ kinematics
+    def within_limits(self, q: Any, tol: float = 0.0) -> bool:
+        """True if ``q_min - tol <= q <= q_max + tol`` for every joint (``tol`` [rad] >= 0)."""
+        q = self._vec(q, "q")
+        tol = non_negative(tol, "tol")
+        return bool(np.all(q >= self.q_min - tol) and np.all(q <= self.q_max + tol))
+
+    def flange_pose(self, q: Any) -> np.ndarray:
+        """T_O_E (4, 4): flange pose in the base frame, Eq. (15) (the paper's T_6^0)."""
+        pin.forwardKinematics(self.model, self._data, self._vec(q, "q"))
+        return pin.updateFramePlacement(self.model, self._data, self._flange_id).homogeneous
+
+    def camera_pose(self, q: Any) -> np.ndarray:
+        """T_O_C (4, 4) = T_O_E(q) T_E_C: camera pose in the base frame (Eq. 21 inverted)."""
+        pin.forwardKinematics(self.model, self._data, self._vec(q, "q"))
+        return pin.updateFramePlacement(self.model, self._data, self._camera_id).homogeneous
+
+    def camera_jacobian(self, q: Any) -> np.ndarray:
+        """J_C (6, 6): LOCAL frame Jacobian of the camera, maps dq to the camera twist [v; w] in {C}.
+
+        With the stereo interaction matrix L(P_C), ``L @ J_C`` is the 9x6 image Jacobian
+        of Eq. (51). Rank 5 at the wrist singularity q5 = 0 (ERRATA 7).
+        """
+        return pin.computeFrameJacobian(self.model, self._data, self._vec(q, "q"), self._camera_id, pin.LOCAL)
+
+    # ------------------------------------------------------------------ dynamics
+    def mass_matrix(self, q: Any) -> np.ndarray:
+        """M(q) = D(q) + J (6, 6), Eq. (31): CRBA with the armature, both triangles filled."""
+        M = pin.crba(self.model, self._data, self._vec(q, "q"))
+        return np.triu(M) + np.triu(M, 1).T
+
+    def nonlinear_effects(self, q: Any, dq: Any) -> np.ndarray:
+        """h(q, dq) = C(q, dq) dq + g(q) + (B / r) dq (6,) [N m], Eq. (32)."""
+        dq = self._vec(dq, "dq")
+        return pin.nonLinearEffects(self.model, self._data, self._vec(q, "q"), dq) + self.damping * dq
+
+    def gravity(self, q: Any) -> np.ndarray:
+        """g(q) (6,) [N m], the gravity torques of Eq. (29)."""
+        return pin.computeGeneralizedGravity(self.model, self._data, self._vec(q, "q")).copy()
+
+    def forward_dynamics(self, q: Any, dq: Any, tau: Any) -> np.ndarray:
+        """Joint accelerations ddq (6,) [rad/s^2] solving Eq. (30) M(q) ddq + h(q, dq) = tau.
+
+        ABA (armature included) on ``tau - damping * dq``.
+        """
+        dq = self._vec(dq, "dq")
+        tau = self._vec(tau, "tau") - self.damping * dq
+        return pin.aba(self.model, self._data, self._vec(q, "q"), dq, tau).copy()
+
+    def inverse_dynamics(self, q: Any, dq: Any, ddq: Any) -> np.ndarray:
+        """Joint torques tau = M(q) ddq + h(q, dq) (6,) [N m], Eq. (30) (RNEA with armature, plus damping)."""
+        dq = self._vec(dq, "dq")
+        tau = pin.rnea(self.model, self._data, self._vec(q, "q"), dq, self._vec(ddq, "ddq"))
+        return tau + self.damping * dq
+
+    def kinetic_energy(self, q: Any, dq: Any) -> float:
+        """0.5 dq^T M(q) dq [J], rotor (armature) energy included."""
+        dq = self._vec(dq, "dq")
+        return 0.5 * float(dq @ self.mass_matrix(q) @ dq)
+
+    def potential_energy(self, q: Any) -> float:
+        """Gravitational potential energy of the links and camera [J] (zero at base height)."""
+        return float(pin.computePotentialEnergy(self.model, self._data, self._vec(q, "q")))
+
+    # ------------------------------------------------------------------ inverse kinematics
+    def ik(self, T_O_C: Any, q_near: Any = None) -> np.ndarray:
+        """Every joint configuration within limits that puts the camera at ``T_O_C``, Eq. (28).
+
+        Closed form (:mod:`ibvs_youla.model.ik`, up to 8 branches: shoulder front/back,
+        elbow up/down, wrist flip) when :attr:`ik_parameters` is set, else damped
+        Gauss-Newton from ``q_near`` and 24 fixed seeded starts. Each joint comes back as
+        the 2*pi-equivalent within limits nearest ``q_near`` (for the IRB 4600 this matters
+        for axes 4 and 6, +-400 deg; without ``q_near`` they lie in (-pi, pi]). At a wrist
+        singularity (q5 = 0) q4 = q_near[3] (or 0) and q6 carries the rotation. Every row
+        satisfies max|FK(q) - T_O_C| <= 1e-9.
+
+        Args:
+            T_O_C: Camera pose in the base frame (4, 4), rigid within 1e-6 (projected
+                onto SO(3) before solving).
+            q_near: Reference configuration (6,) [rad]; default zeros.
+
+        Returns:
+            (k, 6) [rad], sorted by Euclidean distance to ``q_near`` (nearest first).
+
+        Raises:
+            InvalidArrayError: non-finite or non-rigid pose, bad ``q_near``.
+            UnreachablePoseError: no solution within the joint limits.
+        """
+        T_O_C = as_pose(T_O_C, "T_O_C").copy()
+        U, _, Vt = np.linalg.svd(T_O_C[:3, :3])
+        T_O_C[:3, :3] = U @ Vt
+        ref = np.zeros(_N) if q_near is None else as_array(q_near, "q_near", (_N,))
+        if self.ik_parameters is not None:
+            raw = closed_form_branches(self.ik_parameters, T_O_C @ self._T_C_E, ref)
+        else:
+            seeds = self._ik_seeds if q_near is None else np.vstack([ref, self._ik_seeds])
+            raw = numerical_branches(self.model, self._data, self._camera_id, T_O_C, seeds)
+        solutions = select_branches(raw, self.q_min, self.q_max, ref)
+        solutions = solutions[[np.abs(self.camera_pose(q) - T_O_C).max() <= _IK_TOL for q in solutions]]
+        if solutions.shape[0] == 0:
+            where = np.round(T_O_C[:3, 3], 4).tolist()
+            why = (
+                "no configuration reaches it (outside the workspace)"
+                if raw.shape[0] == 0
+                else f"{raw.shape[0]} solution(s) reach it but none within the joint limits, e.g. q = "
+                f"{np.round(np.degrees(raw[0]), 2).tolist()} deg"
+            )
+            raise UnreachablePoseError(T_O_C, f"{self.name}: camera pose at {where} m: {why}")
+        return solutions

@@ -1,0 +1,286 @@
+"""Inverse kinematics: closed form for IRB 4600-type spherical-wrist arms, numerical otherwise.
+
+The closed form (Section 4.6, Eq. 26-28; Appendix B re-derived, ERRATA 4-5) covers arms
+whose standard DH table has the IRB 4600 structure of ERRATA 1::
+
+    (d1, a1, -90 deg, 0), (0, a2, 0, -90 deg), (0, a3, -90 deg, 0),
+    (d4, 0, 90 deg, 0), (0, 0, -90 deg, 0), (d6, 0, 0, 0)
+
+i.e. a shoulder offset a1, an elbow offset a3 and a spherical wrist (axes 4-6 meet at
+the wrist centre), like the OPW parameterisation with c1 = d1, c2 = a2, c3 = d4,
+c4 = d6 and no lateral offset. Derivation, all angles in the vertical plane of joint 1
+("angle from the vertical", radial coordinate rho along (cos q1, sin q1)):
+
+* wrist centre ``p_wc = p_E - d6 * z_E``; q1 = atan2(y_wc, x_wc) (front) or + pi (back).
+* from joint 2, ``(r, s) = (rho_wc - a1, z_wc - d1) = a2 (sin q2, cos q2)
+  + L (sin(q2 + q3 + beta), cos(q2 + q3 + beta))`` with ``L = hypot(a3, d4)``,
+  ``beta = atan2(d4, a3)``. Law of cosines: ``cos(q3 + beta) = (r^2 + s^2 - a2^2 - L^2)
+  / (2 a2 L)`` (two elbow signs), then ``q2 = atan2(r, s) - atan2(L sin(q3+beta),
+  a2 + L cos(q3+beta))``. This replaces (B8)-(B9), whose printed denominator is wrong.
+* ``R_3_6 = R_0_3^T R_0_E = Rz(q4) Ry(-q5) Rz(q6)``: ``q5 = atan2(+-sqrt(R02^2 + R12^2), R22)``,
+  ``q4 = atan2(-R12 / s5, -R02 / s5)``, ``q6 = atan2(-R21 / s5, R20 / s5)`` (two-argument
+  arctangents carrying the sign of s5, ERRATA 5).
+
+Singular poses, where infinitely many solutions exist, return one documented choice:
+wrist singularity (|sin q5| < 1e-10, axes 4 and 6 aligned): ``q4 = q_ref[3]`` and the
+whole rotation on q6; shoulder singularity (wrist centre within 1e-10 m of axis 1):
+``q1 = q_ref[0]`` or ``q_ref[0] + pi``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from ..exceptions import InvalidParameterError
+
+__all__ = [
+    "SphericalWristParameters",
+    "closed_form_branches",
+    "numerical_branches",
+    "select_branches",
+]
+
+_ALPHA = (-0.5 * math.pi, 0.0, -0.5 * math.pi, 0.5 * math.pi, -0.5 * math.pi, 0.0)  # [rad]
+_THETA_OFFSET = (0.0, -0.5 * math.pi, 0.0, 0.0, 0.0, 0.0)  # [rad]
+_SINGULAR = 1e-10  # |sin q5| [-] and wrist-centre distance to axis 1 [m] treated as exactly singular
+_TWO_PI = 2.0 * math.pi
+
+
+def _dh(d: float, a: float, alpha: float, theta: float) -> np.ndarray:
+    """Standard DH transform Rz(theta) Tz(d) Tx(a) Rx(alpha), Eq. (12)-(13)."""
+    ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
+    return np.array(
+        [[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0, sa, ca, d], [0, 0, 0, 1.0]]
+    )
+
+
+@dataclass(frozen=True)
+class SphericalWristParameters:
+    """Lengths [m] of an IRB 4600-type arm (DH structure in the module docstring).
+
+    Attributes:
+        d1: Height of joint 2's axis above the base frame.
+        a1: Shoulder offset (joint 2's axis from joint 1's axis).
+        a2: Upper arm, joint 2 to joint 3 (> 0).
+        a3: Elbow offset, perpendicular to the forearm.
+        d4: Forearm, along axis 4 to the wrist centre.
+        d6: Wrist centre to flange along axis 6.
+    """
+
+    d1: float
+    a1: float
+    a2: float
+    a3: float
+    d4: float
+    d6: float
+
+    def __post_init__(self) -> None:
+        for name in ("d1", "a1", "a2", "a3", "d4", "d6"):
+            if not math.isfinite(getattr(self, name)):
+                raise InvalidParameterError(name, getattr(self, name), "a finite length [m]")
+        if self.a2 <= 0.0:
+            raise InvalidParameterError("a2", self.a2, "> 0 m")
+        if math.hypot(self.a3, self.d4) <= 0.0:
+            raise InvalidParameterError("(a3, d4)", (self.a3, self.d4), "not both zero")
+
+    @classmethod
+    def irb4600(cls) -> SphericalWristParameters:
+        """ABB IRB 4600-45/2.05, ERRATA 1 / Table A1."""
+        return cls(d1=0.495, a1=0.175, a2=0.900, a3=0.175, d4=0.960, d6=0.135)
+
+    def dh_rows(self) -> tuple[tuple[float, float, float, float], ...]:
+        """Standard DH rows (d [m], a [m], alpha [rad], theta_offset [rad]), Eq. (12)."""
+        ds = (self.d1, 0.0, 0.0, self.d4, 0.0, self.d6)
+        as_ = (self.a1, self.a2, self.a3, 0.0, 0.0, 0.0)
+        return tuple(zip(ds, as_, _ALPHA, _THETA_OFFSET, strict=True))
+
+    def flange_pose(self, q: np.ndarray) -> np.ndarray:
+        """T_O_E (4, 4) by the DH product of Eq. (15), for checks against a model."""
+        T_O_E = np.eye(4)
+        for (d, a, alpha, offset), qi in zip(self.dh_rows(), q, strict=True):
+            T_O_E = T_O_E @ _dh(d, a, alpha, float(qi) + offset)
+        return T_O_E
+
+    @classmethod
+    def identify(
+        cls, model: pin.Model, flange_frame_id: int, n_checks: int = 8
+    ) -> SphericalWristParameters | None:
+        """Read the lengths off a 6-joint model's axes at q = 0, or None if it is not of this type.
+
+        Joint axis lines come from the WORLD joint Jacobian at q = 0 (column [v; w], with
+        v = p x w for any point p of the axis, so the foot of the axis is w x v). The
+        candidate is accepted only if its DH flange pose matches the model's to 1e-9 at
+        ``n_checks`` seeded random configurations.
+        """
+        data = model.createData()
+        q0 = np.zeros(model.nq)
+        J = pin.computeJointJacobians(model, data, q0)
+        feet = np.cross(J[3:].T, J[:3].T)  # (6, 3) foot of each joint axis [m]
+        pin.updateFramePlacements(model, data)
+        x_flange = data.oMf[flange_frame_id].translation[0]
+        d1, a1 = feet[1, 2], feet[1, 0]
+        lengths = (d1, a1, feet[2, 2] - d1, feet[3, 2] - feet[2, 2], feet[4, 0] - a1, x_flange - feet[4, 0])
+        try:
+            cand = cls(*(float(x) for x in lengths))
+        except InvalidParameterError:
+            return None
+        rng = np.random.default_rng(0)
+        lo = np.maximum(model.lowerPositionLimit, -math.pi)
+        hi = np.minimum(model.upperPositionLimit, math.pi)
+        for q in [q0, *(lo + (hi - lo) * rng.random((n_checks, model.nq)))]:
+            pin.forwardKinematics(model, data, q)
+            T_model = pin.updateFramePlacement(model, data, flange_frame_id).homogeneous
+            if not np.allclose(cand.flange_pose(q), T_model, rtol=0.0, atol=1e-9):
+                return None
+        return cand
+
+
+def _wrist(R36: np.ndarray, q4_ref: float) -> list[tuple[float, float, float]]:
+    """(q4, q5, q6) with Rz(q4) Ry(-q5) Rz(q6) = R36: two flips, or one choice when singular."""
+    m = math.hypot(R36[0, 2], R36[1, 2])  # |sin q5|
+    if m < _SINGULAR:
+        if R36[2, 2] > 0.0:  # q5 = 0: R36 = Rz(q4 + q6)
+            return [(q4_ref, 0.0, math.atan2(R36[1, 0], R36[0, 0]) - q4_ref)]
+        # q5 = pi: R36 = Rz(q4 - q6) diag(-1, 1, -1)
+        return [(q4_ref, math.pi, q4_ref - math.atan2(-R36[1, 0], -R36[0, 0]))]
+    out = []
+    for sign in (1.0, -1.0):
+        q5 = math.atan2(sign * m, R36[2, 2])
+        q4 = math.atan2(-sign * R36[1, 2], -sign * R36[0, 2])
+        q6 = math.atan2(-sign * R36[2, 1], sign * R36[2, 0])
+        out.append((q4, q5, q6))
+    return out
+
+
+def closed_form_branches(
+    params: SphericalWristParameters, T_O_E: np.ndarray, q_ref: np.ndarray
+) -> np.ndarray:
+    """Every IK solution of the flange pose, joint limits ignored (module docstring).
+
+    Args:
+        params: Arm lengths.
+        T_O_E: Flange pose in the base frame (4, 4), rigid.
+        q_ref: Reference configuration (6,) [rad] for the choices at singular poses.
+
+    Returns:
+        Up to 8 rows (k, 6) [rad]: shoulder front/back x elbow x wrist flip, angles in
+        (-pi, pi] except where a singular choice copies q_ref. Empty (0, 6) when the wrist
+        centre is out of reach.
+    """
+    p = params
+    R = T_O_E[:3, :3]
+    x, y, z = T_O_E[:3, 3] - p.d6 * R[:, 2]  # wrist centre [m]
+    L = math.hypot(p.a3, p.d4)
+    beta = math.atan2(p.d4, p.a3)
+    if math.hypot(x, y) < _SINGULAR:
+        shoulders = (float(q_ref[0]), float(q_ref[0]) + math.pi)
+    else:
+        front = math.atan2(y, x)
+        shoulders = (front, front - math.pi if front > 0.0 else front + math.pi)
+    rows = []
+    for q1 in shoulders:
+        c1, s1 = math.cos(q1), math.sin(q1)
+        r, s = x * c1 + y * s1 - p.a1, z - p.d1  # joint 2 -> wrist centre, radial and vertical [m]
+        cos_g = (r * r + s * s - p.a2**2 - L * L) / (2.0 * p.a2 * L)
+        if abs(cos_g) > 1.0 + 1e-12:
+            continue
+        gamma0 = math.acos(min(1.0, max(-1.0, cos_g)))
+        for gamma in (gamma0, -gamma0) if gamma0 > 0.0 else (gamma0,):
+            q3 = gamma - beta
+            q2 = math.atan2(r, s) - math.atan2(L * math.sin(gamma), p.a2 + L * math.cos(gamma))
+            sp, cp = math.sin(q2 + q3), math.cos(q2 + q3)
+            R_O_3 = np.array([[sp * c1, s1, cp * c1], [sp * s1, -c1, cp * s1], [cp, 0.0, -sp]])
+            for q4, q5, q6 in _wrist(R_O_3.T @ R, float(q_ref[3])):
+                rows.append((q1, q2, q3, q4, q5, q6))
+    return _wrap(np.array(rows, dtype=float).reshape(-1, 6))
+
+
+def _wrap(angles: np.ndarray) -> np.ndarray:
+    """Map angles to (-pi, pi]."""
+    return math.pi - np.mod(math.pi - angles, _TWO_PI)
+
+
+def select_branches(
+    branches: np.ndarray,
+    q_min: np.ndarray,
+    q_max: np.ndarray,
+    q_near: np.ndarray,
+    *,
+    tol: float = 1e-9,
+    duplicate: float = 1e-6,
+) -> np.ndarray:
+    """Bring solutions into the joint limits and sort them by distance to ``q_near``.
+
+    Each joint angle is replaced by its 2*pi-equivalent within [q_min, q_max] (``tol``
+    [rad] of slack, then clipped) that lies nearest ``q_near``; rows with a joint that
+    has no such equivalent are dropped, as are rows within ``duplicate`` [rad] of an
+    earlier one modulo 2*pi (ties at exactly pi from ``q_near`` would otherwise give two
+    rows for one branch). Rows are sorted by Euclidean distance to ``q_near``.
+    """
+    if branches.shape[0] == 0:
+        return branches
+    anchor = np.clip(q_near, q_min, q_max)
+    base = anchor + _wrap(branches - anchor)  # (k, 6), nearest equivalent to the anchor
+    cand = base[..., None] + _TWO_PI * np.arange(-2, 3)  # (k, 6, 5)
+    inside = (cand >= (q_min - tol)[:, None]) & (cand <= (q_max + tol)[:, None])
+    dist = np.where(inside, np.abs(cand - q_near[:, None]), np.inf)
+    pick = np.argmin(dist, axis=-1)
+    ok = np.isfinite(np.take_along_axis(dist, pick[..., None], -1)[..., 0]).all(axis=1)
+    q = np.clip(np.take_along_axis(cand, pick[..., None], -1)[..., 0][ok], q_min, q_max)
+    q = q[np.argsort(np.linalg.norm(q - q_near, axis=1), kind="stable")]
+    keep: list[np.ndarray] = []
+    for row in q:
+        if all(np.abs(_wrap(row - k)).max() > duplicate for k in keep):
+            keep.append(row)
+    return np.array(keep).reshape(-1, 6)
+
+
+def numerical_branches(
+    model: pin.Model,
+    data: pin.Data,
+    frame_id: int,
+    T_O_F: np.ndarray,
+    seeds: np.ndarray,
+    *,
+    tol: float = 1e-12,
+    max_iter: int = 100,
+) -> np.ndarray:
+    """IK of a frame pose by damped Gauss-Newton on the LOCAL error ``log6(T_O_F(q)^-1 T_O_F)``.
+
+    From each seed, ``dq = (J^T J + lam I)^-1 J^T e`` with the LOCAL frame Jacobian J
+    (lam = 1e-4 while |e| > 1e-3, then 1e-12; steps capped at 0.5 rad) until |e| < tol.
+
+    Args:
+        model: Pinocchio model (not modified).
+        data: Its data (overwritten).
+        frame_id: Frame to place.
+        T_O_F: Target pose (4, 4), rigid.
+        seeds: Start configurations (n, nq) [rad].
+        tol: Convergence threshold on |log6| (metres and radians).
+        max_iter: Iterations per seed.
+
+    Returns:
+        Converged configurations (k, nq) [rad], unwrapped, duplicates not removed.
+    """
+    target = pin.SE3(T_O_F[:3, :3], T_O_F[:3, 3])
+    eye = np.eye(model.nv)
+    out = []
+    for seed in seeds:
+        q = np.array(seed, dtype=float)
+        for _ in range(max_iter):
+            pin.forwardKinematics(model, data, q)
+            err = pin.log6(pin.updateFramePlacement(model, data, frame_id).actInv(target)).vector
+            norm = np.linalg.norm(err)
+            if norm < tol:
+                out.append(q)
+                break
+            J = pin.computeFrameJacobian(model, data, q, frame_id, pin.LOCAL)
+            lam = 1e-4 if norm > 1e-3 else 1e-12
+            dq = np.linalg.solve(J.T @ J + lam * eye, J.T @ err)
+            step = np.abs(dq).max()
+            q = q + (dq if step <= 0.5 else dq * (0.5 / step))
+    return np.array(out, dtype=float).reshape(-1, model.nq)

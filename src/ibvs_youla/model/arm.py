@@ -347,8 +347,8 @@ class Arm:
             why = (
                 "no configuration reaches it (outside the workspace)"
                 if raw.shape[0] == 0
-                else f"{raw.shape[0]} solution(s) reach it but none within the joint limits, e.g. q = "
-                f"{np.round(np.degrees(raw[0]), 2).tolist()} deg"
+                else f"{raw.shape[0]} solution(s) reach it but none within the joint limits; nearest q = "
+                f"{np.round(np.degrees(raw[np.argmin(np.linalg.norm(raw - ref, axis=1))]), 2).tolist()} deg"
             )
             raise UnreachablePoseError(T_O_C, f"{self.name}: camera pose at {where} m: {why}")
         return solutions

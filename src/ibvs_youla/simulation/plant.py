@@ -1,0 +1,211 @@
+"""The simulated arm: true joint state, encoder readings, RK4 steps under a held torque.
+
+The plant integrates the rigid-body dynamics of Eq. (29) (``arm.forward_dynamics``:
+Pinocchio ABA with armature, minus viscous damping) with fixed-step RK4, the torque
+held over each step (zero-order hold, see :mod:`.integrators`).
+
+**Encoders and the disturbance of scenario 2 (ERRATA 14).** The state is the *true*
+joint angles and velocities. The encoders read ``q_encoder = q_true - d``, where ``d``
+is a constant joint-angle offset the encoders do not see (1 deg on every joint in
+scenario 2): the controller acts on ``q_encoder`` while the camera moves as if at
+``q_encoder + d``. :meth:`ArmPlant.camera_pose` therefore uses ``q_true``.
+
+**Saturation** (off by default, as in the paper): ``saturate_torque`` clips the applied
+torque to ``+-arm.tau_max`` before the step; ``saturate_speed`` clips the joint speeds to
+``+-arm.dq_max`` after the step (an ideal speed limiter of the drive; positions are not
+corrected, so the clip costs at most one step of consistency).
+
+**Divergence** (always on): after every step the plant raises
+:class:`~ibvs_youla.exceptions.SimulationDivergedError`, naming the time, the quantity,
+the value and the bound, instead of ever holding NaN, when
+
+* ``tau`` (input), ``q`` or ``dq`` holds a non-finite entry;
+* ``|dq_i| > speed_factor * dq_max_i`` (default 1000x: the paper's 1 ms feedforward,
+  ERRATA 11, legitimately reaches about 120x the speed limit of joint 4 in scenario 1,
+  so a tighter bound would reject the paper's own setting);
+* ``q_true`` leaves ``[q_min - position_margin, q_max + position_margin]`` (default
+  margin one full turn, 2 pi rad: the paper does not enforce joint limits, but a joint a
+  whole turn beyond its mechanical stop is a diverged run).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .._validation import as_array, positive
+from ..exceptions import SimulationDivergedError
+from .integrators import rk4_arm_step
+
+__all__ = ["ArmPlant", "DivergenceBounds"]
+
+
+@dataclass(frozen=True)
+class DivergenceBounds:
+    """When the plant declares a run diverged (module docstring).
+
+    Attributes:
+        speed_factor: Divergence when ``|dq_i| > speed_factor * dq_max_i``.
+        position_margin: Divergence when ``q_true`` is more than this beyond a joint limit [rad].
+    """
+
+    speed_factor: float = 1000.0
+    position_margin: float = 2.0 * math.pi
+
+    def __post_init__(self) -> None:
+        positive(self.speed_factor, "speed_factor")
+        positive(self.position_margin, "position_margin", unit="rad")
+
+
+class ArmPlant:
+    """Simulated arm with encoder offset, optional saturation and divergence checks.
+
+    Args:
+        arm: The arm model (``forward_dynamics``, ``q_min``, ``q_max``, ``dq_max``,
+            ``tau_max``, ``camera_pose``), e.g. ``Arm.irb4600()``.
+        joint_offset: Disturbance ``d`` (n,) [rad], true = encoder + d (ERRATA 14);
+            ``None`` for none.
+        q_encoder: Initial encoder reading (n,) [rad]; default zeros. The true arm
+            starts at ``q_encoder + d``.
+        dq: Initial joint velocities (n,) [rad/s]; default zeros.
+        t: Initial time [s].
+        saturate_torque: Clip torques at ``arm.tau_max``.
+        saturate_speed: Clip joint speeds at ``arm.dq_max``.
+        bounds: Divergence bounds.
+    """
+
+    def __init__(
+        self,
+        arm: Any,
+        joint_offset: Any = None,
+        *,
+        q_encoder: Any = None,
+        dq: Any = None,
+        t: float = 0.0,
+        saturate_torque: bool = False,
+        saturate_speed: bool = False,
+        bounds: DivergenceBounds | None = None,
+    ) -> None:
+        self.arm = arm
+        self._n = len(np.asarray(arm.q_min))
+        n = self._n
+        d = np.zeros(n) if joint_offset is None else as_array(joint_offset, "joint_offset", (n,))
+        self.joint_offset = d.copy()
+        self.joint_offset.setflags(write=False)
+        self.saturate_torque = bool(saturate_torque)
+        self.saturate_speed = bool(saturate_speed)
+        self.bounds = DivergenceBounds() if bounds is None else bounds
+        self._q_min = np.asarray(arm.q_min, dtype=float)
+        self._q_max = np.asarray(arm.q_max, dtype=float)
+        self._dq_max = np.asarray(arm.dq_max, dtype=float)
+        self._tau_max = np.asarray(arm.tau_max, dtype=float)
+        self._dq_bound = self.bounds.speed_factor * self._dq_max
+        self._forward_dynamics = arm.forward_dynamics
+        q_encoder = np.zeros(n) if q_encoder is None else q_encoder
+        self.reset(q_encoder, np.zeros(n) if dq is None else dq, t=t)
+
+    # ------------------------------------------------------------------ state
+    def reset(self, q_encoder: Any, dq: Any = None, *, t: float = 0.0) -> None:
+        """Set the state from an encoder reading (true angles = ``q_encoder + d``)."""
+        q_encoder = as_array(q_encoder, "q_encoder", (self._n,))
+        dq = np.zeros(self._n) if dq is None else as_array(dq, "dq", (self._n,))
+        self.t = float(as_array(t, "t", ()))
+        self._q = q_encoder + self.joint_offset
+        self._dq = dq.copy()
+        self.last_tau = np.zeros(self._n)
+
+    @property
+    def q_true(self) -> np.ndarray:
+        """True joint angles (n,) [rad] (a copy)."""
+        return self._q.copy()
+
+    @property
+    def q_encoder(self) -> np.ndarray:
+        """Encoder reading ``q_true - d`` (n,) [rad] (a copy)."""
+        return self._q - self.joint_offset
+
+    @property
+    def dq(self) -> np.ndarray:
+        """Joint velocities (n,) [rad/s] (a copy; the offset is constant, so encoders see these too)."""
+        return self._dq.copy()
+
+    def camera_pose(self) -> np.ndarray:
+        """True camera pose ``T_O_C`` (4, 4): ``arm.camera_pose(q_true)``."""
+        return self.arm.camera_pose(self._q)
+
+    # ------------------------------------------------------------------ dynamics
+    def step(self, tau: Any, dt: float) -> np.ndarray:
+        """Integrate one RK4 step with ``tau`` held, then check for divergence.
+
+        Args:
+            tau: Joint torques (n,) [N m], clipped at ``arm.tau_max`` if ``saturate_torque``.
+            dt: Step [s], > 0.
+
+        Returns:
+            The torque actually applied (after saturation) (n,) [N m].
+
+        Raises:
+            SimulationDivergedError: non-finite torque or state, or a bound exceeded; the
+                state is left at the start of the failed step.
+        """
+        if not dt > 0.0:
+            positive(dt, "dt", unit="s")
+        tau = np.asarray(tau, dtype=float)
+        if tau.shape != (self._n,):
+            tau = as_array(tau, "tau", (self._n,), finite=False)
+        if not np.all(np.isfinite(tau)):
+            self._diverged(self.t, "tau", tau, "finite values")
+        if self.saturate_torque:
+            tau = np.clip(tau, -self._tau_max, self._tau_max)
+        t_next = self.t + dt
+        with np.errstate(all="ignore"):
+            q_next, dq_next = rk4_arm_step(self._forward_dynamics, self._q, self._dq, tau, dt)
+        self._check(t_next, q_next, dq_next)
+        if self.saturate_speed:
+            dq_next = np.clip(dq_next, -self._dq_max, self._dq_max)
+        self._q, self._dq, self.t = q_next, dq_next, t_next
+        self.last_tau = tau
+        return tau
+
+    def _check(self, t: float, q: np.ndarray, dq: np.ndarray) -> None:
+        for name, value in (("q", q), ("dq", dq)):
+            if not np.all(np.isfinite(value)):
+                self._diverged(t, name, value, "finite values")
+        over = np.abs(dq) > self._dq_bound
+        if np.any(over):
+            j = int(np.argmax(np.abs(dq) / self._dq_bound))
+            self._diverged(
+                t,
+                "dq",
+                dq,
+                self._dq_bound,
+                f"|dq_{j + 1}| = {abs(dq[j]):.4g} rad/s > {self._dq_bound[j]:.4g} rad/s "
+                f"({self.bounds.speed_factor:g} x the speed limit {self._dq_max[j]:.4g} rad/s)",
+            )
+        margin = self.bounds.position_margin
+        low, high = self._q_min - margin, self._q_max + margin
+        if np.any((q < low) | (q > high)):
+            j = int(np.argmax(np.maximum(low - q, q - high)))
+            self._diverged(
+                t,
+                "q",
+                q,
+                (low, high),
+                f"q_true_{j + 1} = {q[j]:.4g} rad outside [{low[j]:.4g}, {high[j]:.4g}] rad "
+                f"(joint limits widened by {margin:.4g} rad)",
+            )
+
+    def _diverged(self, t: float, quantity: str, value: np.ndarray, bound: Any, detail: str = "") -> None:
+        if not detail:
+            bad = np.flatnonzero(~np.isfinite(value))
+            detail = f"non-finite {quantity} at joints {[int(j) + 1 for j in bad]}; expected {bound}"
+        raise SimulationDivergedError(
+            t,
+            quantity,
+            np.array(value, copy=True),
+            bound,
+            f"simulation diverged at t = {t:.6g} s: {quantity}: {detail}",
+        )

@@ -1,0 +1,110 @@
+"""Eye-in-hand model F: joint angles -> stereo features of fixed markers, its Jacobian and inverse.
+
+Sec. 4.4-4.5 (Eq. 21-25): P_C = T_C_O P_O, p_image = M(P_C) (Eq. 11), so p_image = F(q, Pa, P_O)
+(Eq. 24). Sec. 6.3: the 9x6 Jacobian J = L(P_C) J_C(q) (Eq. 51, ERRATA 12) and the estimate
+q~ = F^-1(p_image) (Eq. 62) through stereo P3P (Sec. 3, Appendix C) and the arm's inverse kinematics.
+These methods run every camera frame: arguments are not re-validated, constants are precomputed.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..exceptions import InvalidParameterError
+from ..model.camera import StereoCamera, Visibility
+from .stereo_pose import _kabsch, check_marker_geometry
+
+if TYPE_CHECKING:
+    from ..model.arm import Arm
+
+__all__ = ["EyeInHand"]
+
+
+class EyeInHand:
+    """Stereo camera on the flange of an arm, observing markers fixed in the base frame (Eq. 23-25).
+
+    Features are point-major, [u_l1, u_r1, v1, u_l2, ...] [m on the sensor] (Eq. 24).
+
+    Args:
+        arm: Provides ``camera_pose(q)`` (T_O_C), ``camera_jacobian(q)`` (6x6 LOCAL, twist [v; w]
+            in C) and ``ik(T_O_C, q_near)`` (branches sorted by distance to q_near).
+        camera: The stereo camera.
+        markers_O: Marker positions (n, 3), n >= 3 (the paper uses 3), in the base frame [m].
+        virtual_points: Let markers lie behind the camera (negative depth and disparity), as the
+            paper's scenarios need (ERRATA 13). Zero depth or disparity still raises.
+
+    Raises:
+        InvalidArrayError: markers_O is not a finite (n, 3) array with n >= 3.
+        DegenerateMarkersError: coincident or collinear markers (they would not fix the pose, Sec. 3).
+    """
+
+    def __init__(self, arm: Arm | Any, camera: StereoCamera, markers_O: object, virtual_points: bool = False):
+        if not isinstance(camera, StereoCamera):
+            raise InvalidParameterError("camera", type(camera).__name__, "a StereoCamera")
+        self.arm = arm
+        self.camera = camera
+        self.markers_O = check_marker_geometry(markers_O, "markers_O").copy()
+        self.markers_O.flags.writeable = False
+        self.virtual_points = bool(virtual_points)
+
+    @property
+    def n_features(self) -> int:
+        """Number of features, 3 per marker (9 for the paper)."""
+        return 3 * self.markers_O.shape[0]
+
+    def points_in_camera_at_pose(self, T_O_C: np.ndarray) -> np.ndarray:
+        """Markers in the camera frame, P_C = T_C_O P_O (Eq. 21-22), (n, 3) [m]."""
+        R = T_O_C[:3, :3]
+        return (self.markers_O - T_O_C[:3, 3]) @ R  # rows R^T (P_O - t)
+
+    def points_in_camera(self, q: np.ndarray) -> np.ndarray:
+        """Markers in the camera frame at joint angles q (6,) [rad], (n, 3) [m]."""
+        return self.points_in_camera_at_pose(self.arm.camera_pose(q))
+
+    def features_at_pose(self, T_O_C: np.ndarray) -> np.ndarray:
+        """Stereo features (3n,) [m] of the markers seen from camera pose T_O_C (Eq. 11, 21).
+
+        Raises:
+            PointBehindCameraError: a marker has Z_C <= 0 (only |Z_C| ~ 0 with virtual points).
+        """
+        return self.camera._project(self.points_in_camera_at_pose(T_O_C), self.virtual_points).reshape(-1)
+
+    def features(self, q: np.ndarray) -> np.ndarray:
+        """Eye-in-hand map F of Eq. (24): stereo features (3n,) [m] at joint angles q (6,) [rad]."""
+        return self.features_at_pose(self.arm.camera_pose(q))
+
+    def jacobian(self, q: np.ndarray) -> np.ndarray:
+        """Image Jacobian dF/dq (3n, 6) of Eq. (51) (9x6 for three markers, ERRATA 12).
+
+        J = L(P_C) J_C(q): the stereo interaction matrix (twist [v; w] in C to feature rates) times
+        the arm's LOCAL camera Jacobian (dq to that twist). Rank 5 at wrist singularities (ERRATA 7).
+        """
+        P_C = self.points_in_camera(q)
+        return self.camera._interaction(P_C, self.virtual_points) @ self.arm.camera_jacobian(q)
+
+    def visibility(self, q: np.ndarray) -> Visibility:
+        """Depth sign, field of view and depth range of every marker at q (ERRATA 13)."""
+        return self.camera.visibility(self.points_in_camera(q))
+
+    def estimate_camera_pose(self, p_image: np.ndarray) -> np.ndarray:
+        """Stereo P3P (Sec. 3, Appendix C): T_O_C (4x4) from features (3n,) or (n, 3) [m].
+
+        Triangulates the markers (Eq. C6-C8) and fits T_O_C with P_O ≈ T_O_C P_C (Eq. C10-C17).
+
+        Raises:
+            InvalidDisparityError: a marker's disparity is ~0, or negative without virtual points.
+        """
+        p = np.asarray(p_image, dtype=float).reshape(-1, 3)
+        return _kabsch(self.camera._triangulate(p, self.virtual_points), self.markers_O)
+
+    def estimate_q(self, p_image: np.ndarray, q_near: np.ndarray) -> np.ndarray:
+        """Joint angles q~ = F^-1(p_image) of Eq. (62) (6,) [rad]: the IK branch nearest to q_near.
+
+        Raises:
+            InvalidDisparityError: see `estimate_camera_pose`.
+            UnreachablePoseError: no IK branch within the joint limits reaches the estimated pose.
+        """
+        return self.arm.ik(self.estimate_camera_pose(p_image), q_near=q_near)[0]
+

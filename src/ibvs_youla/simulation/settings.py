@@ -1,0 +1,117 @@
+"""Settings of one closed-loop simulation, validated at construction.
+
+The defaults are the paper's (Section 7, Eq. (63)-(66)): tau_in = 0.01 s,
+omega_n = 10 rad/s, zeta = 10, tau_forward = 0.1 tau_in, with the joint loop and
+the camera both running at 1 kHz and no actuator saturation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from .._validation import non_negative, one_of, positive
+from ..control.outer import SingularValuePolicy
+from ..exceptions import InvalidParameterError
+
+__all__ = ["SimulationSettings"]
+
+FEEDFORWARD_KINDS = ("paper", "smooth")
+LINEARIZE_AT = ("start", "target")
+
+
+@dataclass(frozen=True)
+class SimulationSettings:
+    """How a scenario is simulated (rates, gains, plant/model mismatch, limits).
+
+    Attributes:
+        joint_rate_hz: Joint-loop (inner controller, feedforward, RK4) rate [Hz].
+        camera_rate_hz: Camera / outer-loop rate [Hz]; ``None`` runs it at the joint
+            rate, as the paper does. Must divide the joint rate.
+        tau_in: Inner-loop time constant tau_in [s] (Eq. (41), (63)).
+        omega_n: Outer-loop natural frequency [rad/s] (Eq. (56), (64)).
+        zeta: Outer-loop damping ratio (Eq. (56), (66)).
+        tau_forward: Feedforward time constant [s]; ``None`` means 0.1 tau_in (Eq. (49), (65)).
+        feedforward: ``"paper"`` (Eq. (47)-(48): joints follow a step of q_des in about
+            2 tau_forward) or ``"smooth"`` (a minimum-jerk joint trajectory that respects
+            the joint speed limits, then the same inverse inner loop; ERRATA 11).
+        smooth_speed_fraction: Peak joint speed of the smooth feedforward as a fraction of
+            the arm's speed limits.
+        sv_policy: Small-singular-value policy of the outer loop (ERRATA 7).
+        linearize_at: For the fixed (non-adaptive) outer loop, where the image Jacobian
+            is evaluated once: ``"start"`` (the configuration estimated from the first
+            image) or ``"target"`` (the desired configuration).
+        model_inertia_scale: The controller's arm model has its link masses and inertias
+            multiplied by this factor (1.0 = perfect feedback linearization).
+        saturate: Clip joint torques and speeds at the arm's limits (off in the paper).
+        estimate_from_image: Evaluate the adaptive Jacobian at the configuration estimated
+            from the image by stereo P3P + IK (Eq. (62)); if False use the encoders.
+        record_every: Keep every n-th joint-loop sample in the result.
+    """
+
+    joint_rate_hz: float = 1000.0
+    camera_rate_hz: float | None = None
+    tau_in: float = 0.01
+    omega_n: float = 10.0
+    zeta: float = 10.0
+    tau_forward: float | None = None
+    feedforward: str = "paper"
+    smooth_speed_fraction: float = 0.5
+    sv_policy: SingularValuePolicy = field(default_factory=SingularValuePolicy)
+    linearize_at: str = "start"
+    model_inertia_scale: float = 1.0
+    saturate: bool = False
+    estimate_from_image: bool = True
+    record_every: int = 1
+
+    def __post_init__(self) -> None:
+        positive(self.joint_rate_hz, "joint_rate_hz", unit="Hz")
+        if self.camera_rate_hz is not None:
+            positive(self.camera_rate_hz, "camera_rate_hz", unit="Hz")
+            ratio = self.joint_rate_hz / self.camera_rate_hz
+            if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9:
+                raise InvalidParameterError(
+                    "camera_rate_hz",
+                    self.camera_rate_hz,
+                    f"a rate that divides joint_rate_hz = {self.joint_rate_hz} Hz (e.g. "
+                    f"{self.joint_rate_hz / 10:g} Hz)",
+                )
+        positive(self.tau_in, "tau_in", unit="s")
+        positive(self.omega_n, "omega_n", unit="rad/s")
+        positive(self.zeta, "zeta")
+        if self.tau_forward is not None:
+            positive(self.tau_forward, "tau_forward", unit="s")
+        one_of(self.feedforward, "feedforward", FEEDFORWARD_KINDS)
+        frac = positive(self.smooth_speed_fraction, "smooth_speed_fraction")
+        if frac > 1.0:
+            raise InvalidParameterError("smooth_speed_fraction", frac, "a number in (0, 1]")
+        if not isinstance(self.sv_policy, SingularValuePolicy):
+            raise InvalidParameterError("sv_policy", self.sv_policy, "a SingularValuePolicy")
+        one_of(self.linearize_at, "linearize_at", LINEARIZE_AT)
+        positive(self.model_inertia_scale, "model_inertia_scale")
+        non_negative(self.record_every, "record_every")
+        if int(self.record_every) != self.record_every or self.record_every < 1:
+            raise InvalidParameterError("record_every", self.record_every, "an integer >= 1")
+
+    @property
+    def dt(self) -> float:
+        """Joint-loop sample time [s]."""
+        return 1.0 / self.joint_rate_hz
+
+    @property
+    def camera_every(self) -> int:
+        """Number of joint-loop samples per camera frame."""
+        if self.camera_rate_hz is None:
+            return 1
+        return round(self.joint_rate_hz / self.camera_rate_hz)
+
+    @property
+    def tau_ff(self) -> float:
+        """Feedforward time constant actually used [s] (Eq. (49))."""
+        return 0.1 * self.tau_in if self.tau_forward is None else self.tau_forward
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form (for result metadata and TOML round trips)."""
+        d = asdict(self)
+        d["sv_policy"] = asdict(self.sv_policy)
+        return d

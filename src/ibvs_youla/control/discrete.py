@@ -1,0 +1,231 @@
+"""A SISO discrete-time state-space filter applied independently to m channels.
+
+Every runtime controller of the library (inner loop, feedforward, outer loop) is a
+diagonal MIMO system ``G(s) * I_m`` (Eq. (36), (45), (47), and ERRATA 9 for the outer
+loop), so one SISO realization ``(A, B, C, D)`` with an ``(n, m)`` state array serves
+all m channels. The filter runs inside the simulation loop (about 10^4 calls per
+simulated second across all filters), so :meth:`DiscreteFilter.step` uses
+preallocated arrays and a handful of numpy calls; nothing here rebuilds a transfer
+function.
+
+Discretization (:meth:`DiscreteFilter.from_tf`) uses ``scipy.signal.cont2discrete``:
+
+* ``"zoh"`` is exact when the input is piecewise constant between samples (a step of
+  q_des into the feedforward, a held reference into a continuous loop);
+* ``"foh"`` is exact when the input is piecewise linear between samples (a smooth
+  trajectory sampled at the joint rate);
+* ``"tustin"`` (bilinear) maps the left half-plane onto the unit disc, so a stable
+  controller stays stable, s = 0 maps to z = 1 (integrators stay exact integrators)
+  and the frequency response is matched closely well below Nyquist; it is the usual
+  choice for emulating a continuous controller.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import control as ct
+import numpy as np
+from scipy.signal import cont2discrete
+
+from .._validation import as_array, one_of, positive
+from ..exceptions import InvalidArrayError, InvalidParameterError
+
+__all__ = ["METHODS", "DiscreteFilter"]
+
+METHODS = ("zoh", "foh", "tustin")
+_SCIPY_METHOD = {"zoh": "zoh", "foh": "foh", "tustin": "bilinear"}
+
+
+class DiscreteFilter:
+    """x[k+1] = A x[k] + B u[k], y[k] = C x[k] + D u[k], channel by channel.
+
+    The state is an ``(n, m)`` array: column j is the state of channel j. The same
+    SISO matrices act on every channel.
+
+    Args:
+        A: (n, n) discrete state matrix.
+        B: (n,) or (n, 1) input vector.
+        C: (n,) or (1, n) output vector.
+        D: Scalar feedthrough.
+        dt: Sampling period [s].
+        n_channels: Number of independent channels m.
+    """
+
+    def __init__(self, A: Any, B: Any, C: Any, D: Any, dt: float, n_channels: int) -> None:
+        A = as_array(A, "A")
+        if A.ndim == 0:
+            A = A.reshape(1, 1)
+        n = A.shape[0]
+        if A.shape != (n, n):
+            raise InvalidArrayError("A", f"an array of shape {A.shape}", "a square (n, n) array")
+        B = as_array(B, "B").reshape(-1)
+        C = as_array(C, "C").reshape(-1)
+        if B.shape != (n,) or C.shape != (n,):
+            raise InvalidArrayError(
+                "B, C", f"shapes {B.shape} and {C.shape}", f"{n} entries each (SISO, n = {n} states)"
+            )
+        D_arr = as_array(D, "D").reshape(-1)
+        if D_arr.shape != (1,):
+            raise InvalidArrayError("D", f"an array of shape {D_arr.shape}", "a scalar (SISO filter)")
+        if isinstance(n_channels, bool) or not isinstance(n_channels, (int, np.integer)) or n_channels < 1:
+            raise InvalidParameterError("n_channels", n_channels, "an integer >= 1")
+        self._dt = positive(dt, "dt", unit="s")
+        m = int(n_channels)
+        self._A = A.copy()
+        self._B = B.reshape(n, 1).copy()  # column, broadcasts against u (m,)
+        self._C = C.copy()
+        self._D = float(D_arr[0])
+        self._x = np.zeros((n, m))
+        self._x_next = np.zeros((n, m))
+        self._shape = (m,)
+
+    @classmethod
+    def from_tf(
+        cls,
+        sys: Any,
+        dt: float,
+        n_channels: int,
+        method: str = "tustin",
+        prewarp_frequency: float | None = None,
+    ) -> DiscreteFilter:
+        """Discretize a continuous SISO transfer function (or state space).
+
+        Args:
+            sys: Continuous-time SISO ``control.TransferFunction`` or ``StateSpace``.
+            dt: Sampling period [s].
+            n_channels: Number of independent channels m.
+            method: ``"zoh"``, ``"foh"`` or ``"tustin"`` (see the module docstring).
+            prewarp_frequency: With ``"tustin"``, frequency [rad/s] matched exactly.
+
+        Returns:
+            The discrete filter, all states zero.
+        """
+        one_of(method, "method", METHODS)
+        positive(dt, "dt", unit="s")
+        if not isinstance(sys, (ct.TransferFunction, ct.StateSpace)) or not sys.issiso():
+            raise InvalidParameterError("sys", sys, "a SISO control.TransferFunction or StateSpace")
+        if sys.isdtime(strict=True):
+            raise InvalidParameterError("sys", sys, "a continuous-time system (dt = 0)")
+        ss = ct.ss(sys)
+        if method == "tustin" and prewarp_frequency is not None:
+            # Prewarped bilinear: s = (w / tan(w dt / 2)) (z - 1)/(z + 1), i.e. Tustin at a
+            # scaled sampling period; cont2discrete's gbt has no prewarp option.
+            w = positive(prewarp_frequency, "prewarp_frequency", unit="rad/s")
+            dt_eff = 2.0 * np.tan(w * dt / 2.0) / w
+            Ad, Bd, Cd, Dd, _ = cont2discrete((ss.A, ss.B, ss.C, ss.D), dt_eff, method="bilinear")
+        else:
+            Ad, Bd, Cd, Dd, _ = cont2discrete((ss.A, ss.B, ss.C, ss.D), dt, method=_SCIPY_METHOD[method])
+        return cls(Ad, Bd, Cd, Dd, dt, n_channels)
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def dt(self) -> float:
+        """Sampling period [s]."""
+        return self._dt
+
+    @property
+    def n_channels(self) -> int:
+        """Number of independent channels m."""
+        return self._shape[0]
+
+    @property
+    def n_states(self) -> int:
+        """Order n of the SISO realization."""
+        return self._A.shape[0]
+
+    @property
+    def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+        """Copies of (A (n, n), B (n,), C (n,), D)."""
+        return self._A.copy(), self._B[:, 0].copy(), self._C.copy(), self._D
+
+    @property
+    def state(self) -> np.ndarray:
+        """Copy of the (n, m) state."""
+        return self._x.copy()
+
+    def output(self, u: Any) -> np.ndarray:
+        """Output y[k] = C x[k] + D u for input u, without advancing the state."""
+        return self._C @ self._x + self._D * np.asarray(u, dtype=float)
+
+    def dc_gain(self) -> float:
+        """Steady-state gain C (I - A)^-1 B + D (inf if the filter has a pole at z = 1)."""
+        if self._has_unit_pole():
+            return float("inf")
+        n = self.n_states
+        return float(self._C @ np.linalg.solve(np.eye(n) - self._A, self._B[:, 0]) + self._D)
+
+    # ------------------------------------------------------------------ hot path
+    def step(self, u: Any) -> np.ndarray:
+        """Advance one sample: return y[k] = C x[k] + D u[k], then x <- A x + B u.
+
+        Args:
+            u: Input sample u[k], shape (m,). Not checked for finiteness (hot path).
+
+        Returns:
+            y[k], a new (m,) array.
+        """
+        u = np.asarray(u, dtype=float)
+        if u.shape != self._shape:
+            raise InvalidArrayError("u", f"an array of shape {u.shape}", f"shape {self._shape}")
+        y = self._C @ self._x
+        y += self._D * u
+        np.matmul(self._A, self._x, out=self._x_next)
+        self._x_next += self._B * u
+        self._x, self._x_next = self._x_next, self._x
+        return y
+
+    # ------------------------------------------------------------------ resets
+    def reset(self, state: Any = None) -> None:
+        """Set the (n, m) state (zeros by default)."""
+        if state is None:
+            self._x.fill(0.0)
+            return
+        self._x[...] = as_array(state, "state", self._x.shape)
+
+    def reset_steady_state(self, u0: Any) -> None:
+        """Initialise every channel at its equilibrium for the constant input u0.
+
+        x = (I - A)^-1 B u0, so that a constant input u0 keeps the output constant at
+        dc_gain * u0 (e.g. the feedforward starts at rest at q_start).
+
+        Raises:
+            InvalidParameterError: if the filter has a pole at z = 1 (an integrator has
+                no equilibrium for a non-zero input; use :meth:`reset_output`).
+        """
+        u0 = as_array(u0, "u0", self._shape)
+        if self._has_unit_pole():
+            raise InvalidParameterError(
+                "filter", "a pole at z = 1", "a filter without integrator (use reset_output instead)"
+            )
+        n = self.n_states
+        x1 = np.linalg.solve(np.eye(n) - self._A, self._B[:, 0])
+        self._x[...] = np.outer(x1, u0)
+
+    def reset_output(self, y0: Any) -> None:
+        """For a filter with an integrator: rest state with output y0 under zero input.
+
+        The state is placed on the eigenvector w of A for eigenvalue 1, scaled so that
+        C w = 1; then A x = x and y = C x = y0 while the input stays zero.
+
+        Raises:
+            InvalidParameterError: if the filter has no pole at z = 1, or its integrator
+                state is unobservable (C w = 0).
+        """
+        y0 = as_array(y0, "y0", self._shape)
+        n = self.n_states
+        _, sv, vt = np.linalg.svd(self._A - np.eye(n))
+        if not self._has_unit_pole(sv):
+            raise InvalidParameterError(
+                "filter", "no pole at z = 1", "a filter with an integrator (use reset_steady_state instead)"
+            )
+        w = vt[-1]
+        cw = float(self._C @ w)
+        if abs(cw) < 1e-12 * (np.linalg.norm(self._C) + 1e-300):
+            raise InvalidParameterError("filter", "an unobservable integrator (C w = 0)", "C w != 0")
+        self._x[...] = np.outer(w / cw, y0)
+
+    def _has_unit_pole(self, sv: np.ndarray | None = None) -> bool:
+        if sv is None:
+            sv = np.linalg.svd(self._A - np.eye(self.n_states), compute_uv=False)
+        return bool(sv[-1] <= 1e-10 * max(1.0, float(np.abs(self._A).max())))

@@ -1,0 +1,281 @@
+"""Feedforward: the inverse of the inner loop, and a realistic smooth variant (Section 6.2).
+
+The paper's feedforward inverts the inner closed loop T_in (Eq. (46)) and adds a
+double pole to make the inverse proper:
+
+    T_forward = (tau_in s + 1)^3 / ((3 tau_in s + 1)(tau_f s + 1)^2),   tau_f = 0.1 tau_in
+                                                                       (Eq. (47)-(49), (65))
+
+so that the joints follow T_in T_forward = 1/(tau_f s + 1)^2. Fed with a step of the
+desired configuration q_des this asks a joint to travel Delta in about 2 tau_f = 2 ms:
+peak speed |Delta|/(e tau_f) (about 368 |Delta| rad/s) and initial acceleration
+|Delta|/tau_f^2, far beyond the IRB 4600's 175-360 deg/s (ERRATA 11). Eq. (48) is also
+biproper with high-frequency gain tau_in^2/(3 tau_f^2) = 33.3, so q_ff itself jumps by
+33.3 Delta at t = 0+.
+
+The realistic variant (ERRATA 11) feeds the same filter with a minimum-jerk (quintic)
+joint trajectory from q_start to q_des whose duration keeps the peak joint speed at a
+chosen fraction of the speed limits. The joints then follow that trajectory through
+1/(tau_f s + 1)^2, whose impulse response is positive with unit area, so their peak
+speed cannot exceed the trajectory's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import control as ct
+import numpy as np
+
+from .._validation import as_array, positive
+from ..exceptions import InvalidArrayError, InvalidParameterError
+from .discrete import DiscreteFilter
+from .inner import InnerLoopDesign
+
+__all__ = ["FeedforwardDesign", "FeedforwardRuntime", "MinimumJerkTrajectory"]
+
+_PEAK_SPEED = 15.0 / 8.0  # max of d/ds (10 s^3 - 15 s^4 + 6 s^5) on [0, 1], at s = 1/2
+_PEAK_ACCEL = 10.0 / np.sqrt(3.0)  # max of its second derivative, at s = (3 - sqrt(3))/6
+
+
+@dataclass(frozen=True)
+class MinimumJerkTrajectory:
+    """q(t) = q_start + (q_des - q_start)(10 s^3 - 15 s^4 + 6 s^5), s = t/duration in [0, 1].
+
+    Zero speed and acceleration at both ends; peak speed (15/8)|Delta|/duration at
+    mid-course. Before t = 0 it holds q_start, after t = duration it holds q_des.
+
+    Attributes:
+        q_start: Initial joint vector [rad], shape (n,).
+        q_des: Final joint vector [rad], shape (n,).
+        duration: Travel time [s].
+    """
+
+    q_start: np.ndarray
+    q_des: np.ndarray
+    duration: float
+
+    def __post_init__(self) -> None:
+        q0 = as_array(self.q_start, "q_start", (None,))
+        q1 = as_array(self.q_des, "q_des", q0.shape)
+        object.__setattr__(self, "q_start", q0.copy())
+        object.__setattr__(self, "q_des", q1.copy())
+        object.__setattr__(self, "duration", positive(self.duration, "duration", unit="s"))
+
+    @classmethod
+    def within_speed_limits(
+        cls,
+        q_start: Any,
+        q_des: Any,
+        speed_limits: Any,
+        fraction: float = 0.5,
+        min_duration: float = 0.1,
+    ) -> MinimumJerkTrajectory:
+        """The shortest trajectory whose peak joint speeds stay within fraction * limits.
+
+        duration = max(min_duration, max_i (15/8) |Delta_i| / (fraction * limit_i)).
+
+        Args:
+            q_start: Initial joint vector [rad], shape (n,).
+            q_des: Final joint vector [rad], shape (n,).
+            speed_limits: Joint speed limits [rad/s], shape (n,), all > 0 (IRB 4600:
+                radians of 175, 175, 175, 250, 250, 360 deg/s; ERRATA 16).
+            fraction: Fraction of the limits used at peak, in (0, 1].
+            min_duration: Lower bound on the duration [s] (also used when q_des = q_start).
+        """
+        q0 = as_array(q_start, "q_start", (None,))
+        q1 = as_array(q_des, "q_des", q0.shape)
+        vmax = as_array(speed_limits, "speed_limits", q0.shape)
+        if np.any(vmax <= 0.0):
+            raise InvalidArrayError("speed_limits", f"{vmax.tolist()}", "entries > 0 [rad/s]")
+        fraction = positive(fraction, "fraction")
+        if fraction > 1.0:
+            raise InvalidParameterError("fraction", fraction, "a number in (0, 1]")
+        t_min = positive(min_duration, "min_duration", unit="s")
+        needed = float(np.max(_PEAK_SPEED * np.abs(q1 - q0) / (fraction * vmax)))
+        return cls(q0, q1, max(t_min, needed))
+
+    @property
+    def peak_speed(self) -> np.ndarray:
+        """Peak speed of each joint (15/8)|Delta|/duration [rad/s], shape (n,)."""
+        return _PEAK_SPEED * np.abs(self.q_des - self.q_start) / self.duration
+
+    @property
+    def peak_acceleration(self) -> np.ndarray:
+        """Peak acceleration of each joint (10/sqrt(3))|Delta|/duration^2 [rad/s^2]."""
+        return _PEAK_ACCEL * np.abs(self.q_des - self.q_start) / self.duration**2
+
+    def position(self, t: float) -> np.ndarray:
+        """Joint vector at time t [s] (held outside [0, duration])."""
+        s = min(max(t / self.duration, 0.0), 1.0)
+        return self.q_start + (self.q_des - self.q_start) * (s**3 * (10.0 + s * (-15.0 + 6.0 * s)))
+
+    def velocity(self, t: float) -> np.ndarray:
+        """Joint speeds at time t [rad/s]."""
+        s = min(max(t / self.duration, 0.0), 1.0)
+        return (self.q_des - self.q_start) * (30.0 * s**2 * (1.0 - s) ** 2 / self.duration)
+
+
+@dataclass(frozen=True)
+class FeedforwardDesign:
+    """The paper's feedforward T_forward (Eq. (47)-(49)) and its runtimes.
+
+    Attributes:
+        tau_in: Inner-loop time constant [s] (Eq. (41), (63)).
+        tau_forward: Time constant of the added double pole [s]; ``None`` (default)
+            means 0.1 tau_in (Eq. (49), (65)) and is resolved at construction.
+    """
+
+    tau_in: float = 0.01
+    tau_forward: float | None = None
+
+    def __post_init__(self) -> None:
+        tau_in = positive(self.tau_in, "tau_in", unit="s")
+        tau_f = 0.1 * tau_in if self.tau_forward is None else positive(self.tau_forward, "tau_forward")
+        object.__setattr__(self, "tau_in", tau_in)
+        object.__setattr__(self, "tau_forward", tau_f)
+
+    @property
+    def inner(self) -> InnerLoopDesign:
+        """The inner-loop design this feedforward inverts."""
+        return InnerLoopDesign(self.tau_in)
+
+    def filter_tf(self) -> ct.TransferFunction:
+        """T_forward = (tau_in s + 1)^3 / ((3 tau_in s + 1)(tau_f s + 1)^2) (Eq. (48))."""
+        t, tf_ = self.tau_in, self.tau_forward
+        num = [t**3, 3.0 * t**2, 3.0 * t, 1.0]
+        den = np.polymul([3.0 * t, 1.0], [tf_**2, 2.0 * tf_, 1.0])
+        return ct.tf(num, den)
+
+    def tracking_tf(self) -> ct.TransferFunction:
+        """What the joints follow with an ideal inner loop: T_in T_forward = 1/(tau_f s + 1)^2."""
+        tf_ = self.tau_forward
+        return ct.tf([1.0], [tf_**2, 2.0 * tf_, 1.0])
+
+    @property
+    def high_frequency_gain(self) -> float:
+        """T_forward(s -> inf) = tau_in^2 / (3 tau_f^2): the jump of q_ff per unit step."""
+        return self.tau_in**2 / (3.0 * self.tau_forward**2)
+
+    def step_demand(self, delta_q: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Joint demand of a step of size delta_q under the paper's feedforward (ERRATA 11).
+
+        With an ideal inner loop q(t) = Delta (1 - (1 + t/tau_f) e^(-t/tau_f)), so
+
+        Returns:
+            (peak speed |Delta|/(e tau_f) [rad/s], peak acceleration |Delta|/tau_f^2
+            [rad/s^2]), each shaped like delta_q.
+        """
+        d = np.abs(as_array(delta_q, "delta_q"))
+        return d / (np.e * self.tau_forward), d / self.tau_forward**2
+
+    # ------------------------------------------------------------------ runtimes
+    def step_runtime(self, q_start: Any, q_des: Any, dt: float = 1e-3) -> FeedforwardRuntime:
+        """The paper's feedforward: T_forward driven by a step from q_start to q_des at t = 0.
+
+        ZOH discretization: the input is constant after the step, so the sampled
+        output equals the continuous one exactly at every sample.
+        """
+        q0 = as_array(q_start, "q_start", (None,))
+        q1 = as_array(q_des, "q_des", q0.shape)
+        filt = DiscreteFilter.from_tf(self.filter_tf(), dt, q0.size, method="zoh")
+        return FeedforwardRuntime(filt, q0, q1, None)
+
+    def smooth_runtime(
+        self,
+        q_start: Any,
+        q_des: Any,
+        speed_limits: Any,
+        dt: float = 1e-3,
+        speed_fraction: float = 0.5,
+        min_duration: float = 0.1,
+    ) -> FeedforwardRuntime:
+        """Realistic feedforward: T_forward driven by a speed-limited minimum-jerk trajectory.
+
+        FOH discretization: exact for an input that is linear between samples; the
+        quintic differs from its chord by at most dt^2 max|q''|/8 per sample.
+        Arguments as in :meth:`MinimumJerkTrajectory.within_speed_limits`.
+        """
+        traj = MinimumJerkTrajectory.within_speed_limits(
+            q_start, q_des, speed_limits, fraction=speed_fraction, min_duration=min_duration
+        )
+        filt = DiscreteFilter.from_tf(self.filter_tf(), dt, traj.q_start.size, method="foh")
+        return FeedforwardRuntime(filt, traj.q_start, traj.q_des, traj)
+
+
+class FeedforwardRuntime:
+    """Discrete q_ff = T_forward(z)[r] at the joint rate; r is a step or a trajectory.
+
+    Built by :meth:`FeedforwardDesign.step_runtime` or
+    :meth:`FeedforwardDesign.smooth_runtime`. The filter starts at rest at q_start
+    (q_ff(0-) = q_start) and the input r leaves q_start at t = 0. Each call of
+    :meth:`step` returns q_ff at the current sample t_k = k dt and advances k.
+    The first call returns q_start for the smooth runtime and
+    q_start + tau_in^2/(3 tau_f^2) (q_des - q_start) for the paper's step (Eq. (48)
+    is biproper).
+
+    Args:
+        filt: The discretized T_forward, one channel per joint.
+        q_start: Initial joint vector [rad].
+        q_des: Desired joint vector [rad].
+        trajectory: Input trajectory, or ``None`` for a step to q_des at t = 0.
+    """
+
+    def __init__(
+        self,
+        filt: DiscreteFilter,
+        q_start: np.ndarray,
+        q_des: np.ndarray,
+        trajectory: MinimumJerkTrajectory | None,
+    ) -> None:
+        self._filter = filt
+        self._q_start = np.array(q_start, dtype=float)
+        self._q_des = np.array(q_des, dtype=float)
+        self._trajectory = trajectory
+        self._k = 0
+        self.reset()
+
+    @property
+    def dt(self) -> float:
+        """Sampling period [s]."""
+        return self._filter.dt
+
+    @property
+    def time(self) -> float:
+        """Time t_k [s] of the sample the next :meth:`step` returns."""
+        return self._k * self._filter.dt
+
+    @property
+    def q_start(self) -> np.ndarray:
+        """Initial joint vector [rad] (copy)."""
+        return self._q_start.copy()
+
+    @property
+    def q_des(self) -> np.ndarray:
+        """Desired joint vector [rad] (copy)."""
+        return self._q_des.copy()
+
+    @property
+    def trajectory(self) -> MinimumJerkTrajectory | None:
+        """The smooth input trajectory, or ``None`` for the paper's step."""
+        return self._trajectory
+
+    def reference(self, t: float) -> np.ndarray:
+        """Input r(t) of the filter: q_start before 0, then q_des or the trajectory."""
+        if t < 0.0:
+            return self._q_start.copy()
+        if self._trajectory is None:
+            return self._q_des.copy()
+        return self._trajectory.position(t)
+
+    def step(self) -> np.ndarray:
+        """Return q_ff(t_k) [rad], shape (n,), then advance to t_{k+1}."""
+        r = self._q_des if self._trajectory is None else self._trajectory.position(self._k * self._filter.dt)
+        self._k += 1
+        return self._filter.step(r)
+
+    def reset(self) -> None:
+        """Back to t = 0, filter at rest at q_start."""
+        self._filter.reset_steady_state(self._q_start)
+        self._k = 0

@@ -1,0 +1,132 @@
+"""Did a run reach its target, stall in a local minimum, or is it still converging?
+
+The paper asserts that feedback-only stereo IBVS "falls into local minima" while
+feedforward + feedback reaches the target (Section 7). This module turns that into
+a measurement on a :class:`~ibvs_youla.simulation.results.SimulationResult`:
+
+* **reached**: the final image error and camera pose error are within tolerance;
+* **stalled**: not reached, and the image-error norm changed by less than
+  ``stall_rtol`` (relative) over the last ``window`` fraction of the run, i.e. the
+  closed loop sits at an equilibrium that is not the target: a local minimum of the
+  controller (for the outer loop q_fb = K(z)[J^+ e] every equilibrium has J^+ e = 0,
+  so the residual e lies in the left null space of the Jacobian the controller uses);
+* **converging**: not reached and still moving;
+* **markers_lost** / **diverged**: the run stopped early (``metadata["status"]``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .._validation import positive
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..simulation.results import SimulationResult
+
+__all__ = ["Outcome", "Tolerances", "classify"]
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """What "reached the target" means (defaults: the control-stack issue's acceptance).
+
+    Attributes:
+        image_m: Largest final image error per coordinate [m on the sensor] (1e-7 m is
+            about 0.04 px of the paper's ZED 2 at HD720).
+        position_mm: Final camera position error [mm].
+        rotation_deg: Final camera rotation error [deg].
+        window: Trailing fraction of the run used to judge whether the error still moves.
+        stall_rtol: Relative change of the error norm over the window below which the
+            run counts as stalled.
+    """
+
+    image_m: float = 1e-7
+    position_mm: float = 0.1
+    rotation_deg: float = 0.01
+    window: float = 0.2
+    stall_rtol: float = 1e-3
+
+    def __post_init__(self) -> None:
+        for name in ("image_m", "position_mm", "rotation_deg", "stall_rtol"):
+            positive(getattr(self, name), name)
+        w = positive(self.window, "window")
+        if w >= 1.0:
+            from ..exceptions import InvalidParameterError
+
+            raise InvalidParameterError("window", w, "a fraction in (0, 1)")
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """Verdict on one run, with the numbers behind it.
+
+    Attributes:
+        kind: ``"reached"``, ``"stalled"``, ``"converging"``, ``"markers_lost"`` or ``"diverged"``.
+        final_image_error_m: Largest final |e| over the nine coordinates [m].
+        point_errors_m: Largest final |e| per marker (3,) [m]: which points are unmatched.
+        position_error_mm: Final camera position error [mm].
+        rotation_error_deg: Final camera rotation error [deg].
+        error_change: Relative change of ||e|| over the trailing window,
+            ``(||e||(end) - ||e||(start of window)) / ||e||(start of window)``.
+        duration: Simulated time covered [s].
+    """
+
+    kind: str
+    final_image_error_m: float
+    point_errors_m: tuple[float, ...]
+    position_error_mm: float
+    rotation_error_deg: float
+    error_change: float
+    duration: float
+
+    def describe(self) -> str:
+        """One line for tables and notes."""
+        pts = ", ".join(f"{e:.1e}" for e in self.point_errors_m)
+        return (
+            f"{self.kind} after {self.duration:g} s: max|e| = {self.final_image_error_m:.2e} m "
+            f"(per point {pts}), pose error {self.position_error_mm:.3g} mm / "
+            f"{self.rotation_error_deg:.3g} deg, ||e|| change over the last "
+            f"{100 * Tolerances().window:.0f} %: {100 * self.error_change:+.2g} %"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly form."""
+        d = asdict(self)
+        d["point_errors_m"] = list(self.point_errors_m)
+        return d
+
+
+def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> Outcome:
+    """Classify a run as reached / stalled / converging (see the module docstring)."""
+    tol = Tolerances() if tolerances is None else tolerances
+    e = result.feature_error
+    n_points = e.shape[1] // 3
+    final = np.abs(e[-1])
+    position_mm, rotation_deg = result.final_pose_error()
+    norms = np.linalg.norm(e, axis=1)
+    t = result.t
+    i0 = int(np.searchsorted(t, t[-1] - tol.window * (t[-1] - t[0])))
+    i0 = min(i0, len(t) - 1)
+    ref = norms[i0]
+    change = float((norms[-1] - ref) / ref) if ref > 0 else 0.0
+    status = result.metadata.get("status", "complete")
+    if status != "complete":
+        kind = status
+    elif final.max() <= tol.image_m and position_mm <= tol.position_mm and rotation_deg <= tol.rotation_deg:
+        kind = "reached"
+    elif abs(change) < tol.stall_rtol:
+        kind = "stalled"
+    else:
+        kind = "converging"
+    return Outcome(
+        kind=kind,
+        final_image_error_m=float(final.max()),
+        point_errors_m=tuple(float(v) for v in final.reshape(n_points, 3).max(axis=1)),
+        position_error_mm=float(position_mm),
+        rotation_error_deg=float(rotation_deg),
+        error_change=change,
+        duration=float(t[-1] - t[0]),
+    )

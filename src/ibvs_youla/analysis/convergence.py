@@ -104,6 +104,10 @@ def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> 
     tol = Tolerances() if tolerances is None else tolerances
     e = result.feature_error
     n_points = e.shape[1] // 3
+    status = result.metadata.get("status", "complete")
+    if len(result.t) == 0:  # stopped before the first sample (e.g. markers lost at t = 0)
+        nan = float("nan")
+        return Outcome(status, nan, (nan,) * n_points, nan, nan, nan, 0.0)
     final = np.abs(e[-1])
     position_mm, rotation_deg = result.final_pose_error()
     norms = np.linalg.norm(e, axis=1)
@@ -112,7 +116,6 @@ def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> 
     i0 = min(i0, len(t) - 1)
     ref = norms[i0]
     change = float((norms[-1] - ref) / ref) if ref > 0 else 0.0
-    status = result.metadata.get("status", "complete")
     if status != "complete":
         kind = status
     elif final.max() <= tol.image_m and position_mm <= tol.position_mm and rotation_deg <= tol.rotation_deg:

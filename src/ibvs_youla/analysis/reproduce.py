@@ -251,6 +251,13 @@ def _fmt(x: Any, spec: str = ".2g") -> str:
     return format(x, spec)
 
 
+def _percent(fraction: float) -> str:
+    """Percent with no rounding up to 100 (99.85 % must not read as 'all the time')."""
+    if fraction >= 1.0:
+        return "100"
+    return f"{np.floor(1000.0 * fraction) / 10.0:.1f}"
+
+
 def _markdown(rows: list[dict[str, Any]], duration: float, diagnosis_duration: float) -> str:
     head = (
         f"| scenario | controller | outer loop | outcome at {duration:g} s | max abs e [m] "
@@ -276,7 +283,7 @@ def _markdown(rows: list[dict[str, Any]], duration: float, diagnosis_duration: f
                     _fmt(r["overshoot_max_percent"], ".3g"),
                     _fmt(max(r["peak_joint_speed_ratio"]), ".3g"),
                     _fmt(max(r["peak_torque_ratio"]), ".3g"),
-                    ", ".join(f"{100 * v:.0f}" for v in r["visibility_fraction"]),
+                    ", ".join(_percent(v) for v in r["visibility_fraction"]),
                     "-"
                     if x is None
                     else f"{x['kind']} ({_fmt(x['final_image_error_m'])} m, "

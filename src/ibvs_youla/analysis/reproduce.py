@@ -135,7 +135,7 @@ def _row(result: SimulationResult, outcome: Outcome, extended: Outcome | None, a
 def reproduce(
     out_dir: str | Path,
     *,
-    scenario_names: tuple[str, ...] | list[str] = ("paper-1", "paper-2"),
+    scenario_names: tuple[str, ...] | list[str] = ("paper-1", "paper-2", "physical-1", "physical-2"),
     duration: float = 20.0,
     diagnosis_duration: float = 120.0,
     settings: SimulationSettings | None = None,
@@ -147,7 +147,8 @@ def reproduce(
     Args:
         out_dir: Output folder; ``runs/``, ``figures/``, ``table.md`` and ``table.json``
             are written under it.
-        scenario_names: Names known to :func:`ibvs_youla.scenarios.get`.
+        scenario_names: Names known to :func:`ibvs_youla.scenarios.get`; default the paper's two
+            scenarios with its virtual markers and their physical twins (ERRATA 13).
         duration: Simulated time of each run [s] (the figures and the table).
         diagnosis_duration: Longer horizon [s] for runs that have not reached the target;
             0 (or <= duration) skips the diagnosis.

@@ -72,6 +72,8 @@ class Outcome:
         error_change: Relative change of ||e|| over the trailing window,
             ``(||e||(end) - ||e||(start of window)) / ||e||(start of window)``.
         duration: Simulated time covered [s].
+        reached_at_s: Time from which image and pose errors stay within tolerance until
+            the end [s]; ``inf`` if the run ends outside it.
     """
 
     kind: str
@@ -81,6 +83,7 @@ class Outcome:
     rotation_error_deg: float
     error_change: float
     duration: float
+    reached_at_s: float = float("inf")
 
     def describe(self) -> str:
         """One line for tables and notes."""
@@ -107,7 +110,7 @@ def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> 
     status = result.metadata.get("status", "complete")
     if len(result.t) == 0:  # stopped before the first sample (e.g. markers lost at t = 0)
         nan = float("nan")
-        return Outcome(status, nan, (nan,) * n_points, nan, nan, nan, 0.0)
+        return Outcome(status, nan, (nan,) * n_points, nan, nan, nan, 0.0, float("inf"))
     final = np.abs(e[-1])
     position_mm, rotation_deg = result.final_pose_error()
     norms = np.linalg.norm(e, axis=1)
@@ -124,7 +127,16 @@ def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> 
         kind = "stalled"
     else:
         kind = "converging"
+    inside = (np.abs(e).max(axis=1) <= tol.image_m) & _pose_within(result, tol)
+    outside = np.flatnonzero(~inside)
+    if outside.size == 0:
+        reached_at = float(t[0])
+    elif outside[-1] == len(t) - 1:
+        reached_at = float("inf")
+    else:
+        reached_at = float(t[outside[-1] + 1])
     return Outcome(
+        reached_at_s=reached_at,
         kind=kind,
         final_image_error_m=float(final.max()),
         point_errors_m=tuple(float(v) for v in final.reshape(n_points, 3).max(axis=1)),
@@ -133,3 +145,15 @@ def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> 
         error_change=change,
         duration=float(t[-1] - t[0]),
     )
+
+
+def _pose_within(result: SimulationResult, tol: Tolerances) -> np.ndarray:
+    """Per sample: camera position and rotation errors within tolerance (vectorized)."""
+    T, T_goal = result.camera_pose, result.camera_pose_target
+    position_mm = 1000.0 * np.linalg.norm(T[:, :3, 3] - T_goal[:3, 3], axis=1)
+    R_err = np.einsum("nji,jk->nik", T[:, :3, :3], T_goal[:3, :3])  # R^T R_goal
+    skew = R_err - np.transpose(R_err, (0, 2, 1))
+    sin = 0.5 * np.linalg.norm(np.stack([skew[:, 2, 1], skew[:, 0, 2], skew[:, 1, 0]], axis=1), axis=1)
+    cos = 0.5 * (np.trace(R_err, axis1=1, axis2=2) - 1.0)
+    rotation_deg = np.degrees(np.arctan2(sin, cos))
+    return (position_mm <= tol.position_mm) & (rotation_deg <= tol.rotation_deg)

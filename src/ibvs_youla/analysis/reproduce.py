@@ -264,7 +264,7 @@ def _markdown(rows: list[dict[str, Any]], duration: float, diagnosis_duration: f
         f"| scenario | controller | outer loop | outcome at {duration:g} s | max abs e [m] "
         "| max abs e per point [m] | pose error [mm / deg] | 2 % settling [s] | overshoot [%] "
         "| peak speed / limit | peak torque / limit | markers visible [%] "
-        f"| outcome at {diagnosis_duration:g} s |"
+        f"| outcome at {diagnosis_duration:g} s | reached at [s] |"
     )
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in rows:
@@ -314,7 +314,7 @@ def findings(rows: list[dict[str, Any]]) -> list[str]:
         label = f"{r['scenario']}, {CONTROLLER_LABELS[r['controller']]}, {r['outer_loop']} outer loop"
         final = x if x is not None else o
         if final["kind"] == "reached":
-            when = "" if x is None else f" (only after {x['duration']:g} s)"
+            when = f" (within tolerance from t = {final['reached_at_s']:.3g} s)"
             out.append(f"{label}: reaches the target{when}.")
         elif final["kind"] == "stalled":
             pts = [i + 1 for i, e in enumerate(final["point_errors_m"]) if e > 1e-7]

@@ -213,10 +213,16 @@ class _Run:
         return q_fb
 
     def _configuration_estimate(self, p: np.ndarray, q_enc: np.ndarray) -> np.ndarray:
-        """Eq. (62): q~ from the image (IK branch nearest the previous estimate), or the encoders."""
+        """Eq. (62): q~ from the image, or the encoders.
+
+        The image fixes the camera pose, which up to eight IK branches reach; the branch
+        is the one nearest ``settings.branch_prior``: the encoders (default) or the
+        previous estimate.
+        """
         if not self.settings.estimate_from_image:
             return q_enc
-        q_near = q_enc if self.q_estimate is None else self.q_estimate
+        use_previous = self.settings.branch_prior == "previous" and self.q_estimate is not None
+        q_near = self.q_estimate if use_previous else q_enc
         self.q_estimate = self.eye.estimate_q(p, q_near)
         return self.q_estimate
 

@@ -27,6 +27,7 @@ __all__ = [
     "SimulationDivergedError",
     "SingularConfigurationError",
     "UnreachablePoseError",
+    "VisualizationError",
 ]
 
 
@@ -196,3 +197,8 @@ class SimulationDivergedError(IbvsYoulaError):
         self.bound = bound
         self.partial = partial
         super().__init__(message)
+
+
+# --------------------------------------------------------------------------- visualization
+class VisualizationError(IbvsYoulaError):
+    """The 3-D viewer cannot run: meshcat is not installed, or the arm has no URDF visual geometry."""

@@ -1,0 +1,237 @@
+"""ibvs_youla.viz: frustum and ray geometry, playback schedule, the Meshcat viewer in headless Chromium."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import urllib.request
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from headless_chromium import chromium, meshcat_pixels, screenshot
+from ibvs_youla import scenarios
+from ibvs_youla.exceptions import IbvsYoulaError, InvalidArrayError, InvalidParameterError, VisualizationError
+from ibvs_youla.model.arm import Arm
+from ibvs_youla.model.camera import PinholeCamera, StereoCamera
+from ibvs_youla.simulation.results import SimulationResult
+from ibvs_youla.viz import (
+    Viewer,
+    frustum_corners_C,
+    frustum_segments_C,
+    lens_centres_C,
+    playback_frames,
+    ray_segments_O,
+)
+
+CAMERAS = {
+    "paper": StereoCamera.zed2(),
+    "zed2-HD1080": StereoCamera.zed2("zed2", "HD1080"),
+    # off-centre principal point and skew: corners must follow K (Eq. 6), not a centred-sensor shortcut
+    "skewed": StereoCamera(focal_length=3e-3, sensor_width=4e-3, sensor_height=3e-3, pixel_pitch=5e-6,
+                           skew=12.0, principal_point=(350.0, 260.0), baseline=0.1),
+}
+
+
+# ---------------------------------------------------------------------------- geometry
+def test_lens_centres_put_the_left_lens_at_plus_half_baseline():
+    cam = StereoCamera.zed2()
+    np.testing.assert_array_equal(lens_centres_C(cam), [[0.06, 0.0, 0.0], [-0.06, 0.0, 0.0]])  # ERRATA 12
+    np.testing.assert_array_equal(lens_centres_C(PinholeCamera.zed2()), [[0.0, 0.0, 0.0]])
+    with pytest.raises(InvalidParameterError, match="StereoCamera or a PinholeCamera"):
+        lens_centres_C("zed2")
+
+
+@pytest.mark.parametrize("name", ["paper", "zed2-HD1080"])
+def test_frustum_corners_make_half_the_field_of_view_with_the_optical_axis(name):
+    cam = CAMERAS[name]
+    fov_h, fov_v = cam.field_of_view
+    corners = frustum_corners_C(cam, depth=2.0)
+    assert corners.shape == (2, 4, 3)
+    for lens, pts in zip(lens_centres_C(cam), corners, strict=True):
+        half_h = np.arctan(np.abs(pts[:, 0] - lens[0]) / pts[:, 2])  # [rad]
+        half_v = np.arctan(np.abs(pts[:, 1]) / pts[:, 2])
+        np.testing.assert_allclose(half_h, fov_h / 2, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(half_v, fov_v / 2, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(pts[:, 2], 2.0)
+
+
+@pytest.mark.parametrize("name", sorted(CAMERAS))
+def test_frustum_corners_project_to_the_image_corners_of_their_own_lens(name):
+    cam = CAMERAS[name]
+    width, height = cam.sensor_width / cam.pixel_pitch, cam.sensor_height / cam.pixel_pitch
+    expected = np.array([[0.0, 0.0], [width, 0.0], [width, height], [0.0, height]])
+    for lens, pts in enumerate(frustum_corners_C(cam, depth=1.3)):
+        px = cam.to_pixels(cam.project(pts))  # rows [u_l, u_r, v] [px]
+        np.testing.assert_allclose(px[:, [lens, 2]], expected, rtol=0, atol=1e-8)  # [px]
+
+
+def test_frustum_segments_edges_and_rectangles():
+    cam = StereoCamera.zed2()
+    segments = frustum_segments_C(cam, near=0.5, far=1.0)
+    assert segments.shape == (2 * (4 + 4 + 4), 2, 3)  # per lens: 4 edges, far and near rectangles
+    np.testing.assert_array_equal(segments[0, 0], [0.06, 0.0, 0.0])  # edges start at the left lens
+    np.testing.assert_array_equal(np.unique(np.round(segments[:, :, 2], 12)), [0.0, 0.5, 1.0])
+    assert frustum_segments_C(cam, near=0.0, far=1.0).shape == (16, 2, 3)
+    with pytest.raises(InvalidParameterError, match="near"):
+        frustum_segments_C(cam, near=1.0, far=1.0)
+    with pytest.raises(InvalidParameterError, match="far"):
+        frustum_segments_C(cam, near=0.0, far=-1.0)
+
+
+def test_rays_run_from_each_lens_to_each_marker_along_the_stereo_projection():
+    rng = np.random.default_rng(7)
+    cam = StereoCamera.zed2()
+    T_O_C = _random_pose(rng)
+    P_C = rng.uniform([-0.5, -0.4, 1.0], [0.5, 0.4, 3.0], size=(3, 3))
+    markers_O = P_C @ T_O_C[:3, :3].T + T_O_C[:3, 3]
+    rays = ray_segments_O(cam, T_O_C, markers_O)
+    assert rays.shape == (2, 3, 2, 3)
+    np.testing.assert_allclose(rays[:, :, 1], np.broadcast_to(markers_O, (2, 3, 3)), rtol=0, atol=0)
+    lenses_O = rays[:, 0, 0]
+    np.testing.assert_allclose(np.linalg.norm(lenses_O[0] - lenses_O[1]), cam.baseline, rtol=0, atol=1e-12)
+    # Direction of each ray in {C}: F dx / dz is that lens's u (Eq. 9-10 with ERRATA 12), F dy / dz is v.
+    features, F = cam.project(P_C), cam.focal_length
+    for lens in range(2):
+        d_C = (rays[lens, :, 1] - rays[lens, :, 0]) @ T_O_C[:3, :3]
+        np.testing.assert_allclose(F * d_C[:, 0] / d_C[:, 2], features[:, lens], rtol=0, atol=1e-15)  # [m]
+        np.testing.assert_allclose(F * d_C[:, 1] / d_C[:, 2], features[:, 2], rtol=0, atol=1e-15)
+
+
+def _random_pose(rng: np.random.Generator) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = pin.exp3(rng.normal(size=3))
+    T[:3, 3] = rng.normal(size=3)
+    return T
+
+
+# ---------------------------------------------------------------------------- playback
+def test_playback_frames_at_real_speed_and_slower():
+    t = np.arange(2001) * 1e-3  # 2 s at 1 kHz [s]
+    real = playback_frames(t, speed=1.0, fps=30.0)
+    assert len(real) == 61  # frames at 0, 1/30, ..., 2 s: plays in 2 s
+    np.testing.assert_array_equal(real, [k * 100 // 3 for k in range(61)])  # last t[i] <= k / 30
+    slow = playback_frames(t, speed=0.5, fps=30.0)
+    assert len(slow) == 121  # twice as many frames: plays in 4 s
+    np.testing.assert_array_equal(slow, [k * 50 // 3 for k in range(121)])
+    assert real[-1] == slow[-1] == 2000
+
+
+def test_playback_ends_on_the_last_sample_and_rejects_bad_input():
+    t = np.array([0.0, 0.1, 0.2, 0.25])
+    np.testing.assert_array_equal(playback_frames(t, speed=1.0, fps=10.0), [0, 1, 2, 3])
+    np.testing.assert_array_equal(playback_frames([5.0], speed=1.0, fps=30.0), [0])
+    with pytest.raises(InvalidParameterError, match="speed"):
+        playback_frames(t, speed=0.0)
+    with pytest.raises(InvalidParameterError, match="fps"):
+        playback_frames(t, fps=-30.0)
+    with pytest.raises(InvalidArrayError, match="decreasing"):
+        playback_frames([0.0, 0.2, 0.1])
+
+
+# ---------------------------------------------------------------------------- import and errors
+def test_importing_viz_loads_neither_meshcat_nor_pinocchio():
+    heavy = "('meshcat', 'pinocchio', 'zmq')"
+    code = f"import sys, ibvs_youla.viz; print([m for m in {heavy} if m in sys.modules])"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_viewer_without_meshcat_raises_visualization_error(monkeypatch):
+    monkeypatch.setitem(sys.modules, "meshcat", None)  # makes `import meshcat` raise ImportError
+    with pytest.raises(VisualizationError, match=r"pip install 'ibvs-youla\[viz\]'") as info:
+        Viewer()
+    assert isinstance(info.value, IbvsYoulaError)
+
+
+# ---------------------------------------------------------------------------- live viewer
+@pytest.fixture(scope="module")
+def viewer():
+    view = Viewer()
+    yield view
+    view.close()
+
+
+def test_viewer_prints_its_url_and_close_stops_its_server(capsys):
+    view = Viewer()
+    server = view._server
+    assert capsys.readouterr().out.strip() == f"Meshcat viewer: {view.url}"
+    assert re.fullmatch(r"http://127\.0\.0\.1:\d+/static/", view.url)
+    view.close()
+    assert server.poll() is not None  # the server process has exited
+
+
+def test_page_and_three_js_are_served_locally(viewer):
+    html = urllib.request.urlopen(viewer.url, timeout=10).read().decode()
+    sources = re.findall(r'(?:src|href)="([^"]*)"', html)
+    assert sources == ["main.min.js"]  # relative: served by meshcat's own server
+    js = urllib.request.urlopen(viewer.url + "main.min.js", timeout=10).read().decode()
+    assert "WebGLRenderer" in js  # three.js is bundled
+    hosts = set(re.findall(r"https?://([A-Za-z0-9.-]+)", js))
+    assert hosts <= {"www.w3.org"}, hosts  # XML namespace URIs only: nothing is fetched from the internet
+
+
+def test_display_rejects_a_wrong_joint_vector(viewer):
+    with pytest.raises(InvalidArrayError, match=r"q: received an array of shape \(5,\)"):
+        viewer.display(np.zeros(5))
+    with pytest.raises(InvalidParameterError, match="part"):
+        viewer.set_visible("robot", False)
+
+
+def test_play_ends_on_the_last_configuration(viewer):
+    sc = scenarios.physical(1)
+    result = _straight_run(viewer.arm, sc, duration=0.3)
+    drawn = viewer.play(result, speed=1.0, fps=30.0)
+    assert 1 <= drawn <= len(playback_frames(result.t, 1.0, 30.0)) == 10
+    np.testing.assert_array_equal(viewer.q, result.q_true[-1])
+    with pytest.raises(InvalidParameterError, match="speed"):
+        viewer.play(result, speed=0.0)
+
+
+def _straight_run(arm: Arm, sc: scenarios.Scenario, duration: float) -> SimulationResult:
+    """A SimulationResult whose joints move on a straight line from q_start to q_target at 100 Hz."""
+    t = np.arange(0.0, duration + 1e-9, 0.01)
+    s = (t / duration)[:, None]
+    q = (1 - s) * sc.q_start + s * sc.q_target
+    n, zeros = len(t), np.zeros((len(t), 6))
+    return SimulationResult(
+        t=t, q=q, q_true=q, dq=zeros, q_ref=q, q_ff=zeros, q_fb=q, tau=zeros,
+        features=np.zeros((n, 9)), feature_target=np.zeros(9), feature_error=np.zeros((n, 9)),
+        camera_pose=np.array([arm.camera_pose(qi) for qi in q]),
+        camera_pose_target=arm.camera_pose(sc.q_target),
+        visible=np.ones((n, 3), bool), update_time=np.zeros(1), metadata={"markers_O": sc.markers_O.tolist()},
+    )
+
+
+@pytest.mark.skipif(chromium() is None, reason="Debian's chromium is not installed (.ci/run installs it)")
+def test_screenshot_shows_the_arm_where_it_should_be(viewer, tmp_path):
+    """Screenshots with the arm shown and hidden differ where the arm projects; links are orange there."""
+    eye = np.array([-1.0, -3.5, 2.0])  # [m]
+    viewer.show_scenario(scenarios.physical(1))  # arm at q = 0, markers, frustum, target pose, rays
+    viewer.set_view(eye)
+    shown = screenshot(viewer.url, tmp_path / "arm.png")
+    viewer.set_visible("arm", False)
+    try:
+        hidden = screenshot(viewer.url, tmp_path / "no_arm.png")
+    finally:
+        viewer.set_visible("arm", True)
+    assert shown.shape == (600, 800, 3)
+    differs = np.abs(shown - hidden).sum(axis=2) > 0.1  # [RGB in 0..1]
+    assert differs.mean() > 0.01  # the arm covers a few per cent of the picture
+
+    # Centres of the URDF's visual solids (convex: each projects inside its own silhouette)
+    visual = pin.buildGeomFromUrdf(viewer.arm.model, str(viewer.arm.urdf_path), pin.GeometryType.VISUAL)
+    data, gdata = viewer.arm.model.createData(), visual.createData()
+    pin.updateGeometryPlacements(viewer.arm.model, data, visual, gdata, np.zeros(6))
+    centres = np.array([m.translation for m in gdata.oMg])
+    pixels = np.round(meshcat_pixels(centres, eye)).astype(int)
+    orange = [o.meshColor[0] > 0.5 for o in visual.geometryObjects]  # links; base and camera are grey
+    for (col, row), is_orange, obj in zip(pixels, orange, visual.geometryObjects, strict=True):
+        assert 0 <= col < 800 and 0 <= row < 600, obj.name
+        window = (slice(row - 1, row + 2), slice(col - 1, col + 2))
+        assert differs[window].mean() >= 5 / 9, f"{obj.name}: no arm drawn at pixel ({col}, {row})"
+        if is_orange:  # URDF colour (0.93, 0.45, 0.1), shaded; the sky behind is blue (b > r)
+            r, g, b = np.median(shown[window].reshape(-1, 3), axis=0)
+            assert r > 0.4 and r > g > b and r - b > 0.25, f"{obj.name}: ({r:.2f}, {g:.2f}, {b:.2f})"

@@ -152,7 +152,8 @@ def reproduce(
         duration: Simulated time of each run [s] (the figures and the table).
         diagnosis_duration: Longer horizon [s] for runs that have not reached the target;
             0 (or <= duration) skips the diagnosis.
-        settings: Simulation settings; default the paper's.
+        settings: Simulation settings; default :meth:`SimulationSettings.paper` (both loops
+            at 1 kHz, the paper's gains).
         resume: Reuse runs already saved in ``out_dir/runs`` with the same settings.
         progress: Show progress bars.
 
@@ -162,7 +163,7 @@ def reproduce(
     duration = positive(duration, "duration", unit="s")
     if not scenario_names:
         raise InvalidParameterError("scenario_names", scenario_names, "one or more scenario names")
-    settings = SimulationSettings() if settings is None else settings
+    settings = SimulationSettings.paper() if settings is None else settings
     out = Path(out_dir)
     (out / "runs").mkdir(parents=True, exist_ok=True)
     (out / "figures").mkdir(parents=True, exist_ok=True)

@@ -32,11 +32,15 @@ def transform_points(T_A_B: np.ndarray, P_B: np.ndarray) -> np.ndarray:
 def pose_error(T_est: np.ndarray, T_ref: np.ndarray) -> tuple[float, float]:
     """Return (rotation error [rad], translation error [m]) between two poses.
 
-    The rotation error is the angle of R_ref^T R_est (geodesic distance on SO(3)).
+    The rotation error is the angle of R_ref^T R_est (geodesic distance on SO(3)); same
+    computation as :func:`ibvs_youla.analysis.metrics.pose_error`, in SI units.
     """
-    dR = T_ref[:3, :3].T @ T_est[:3, :3]
-    angle = float(np.linalg.norm(pin.log3(dR)))
-    return angle, float(np.linalg.norm(T_est[:3, 3] - T_ref[:3, 3]))
+    from .analysis.metrics import pose_error_series
+
+    position_mm, rotation_deg = pose_error_series(
+        np.asarray(T_est, dtype=float)[None], np.asarray(T_ref, dtype=float)
+    )
+    return float(np.radians(rotation_deg[0])), float(position_mm[0]) / 1000.0
 
 
 def exp_twist(xi: np.ndarray) -> np.ndarray:

@@ -81,30 +81,25 @@ def as_pose(value: Any, name: str) -> np.ndarray:
     return T
 
 
-def positive(value: Any, name: str, *, unit: str = "") -> float:
-    """Return ``value`` as a float after checking it is finite and > 0."""
+def _bounded_below(value: Any, name: str, unit: str, strict: bool) -> float:
+    valid = f"a finite number {'>' if strict else '>='} 0{(' ' + unit) if unit else ''}"
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise InvalidParameterError(
-            name, value, f"a finite number > 0{(' ' + unit) if unit else ''}"
-        ) from None
-    if not np.isfinite(x) or x <= 0.0:
-        raise InvalidParameterError(name, value, f"a finite number > 0{(' ' + unit) if unit else ''}")
+        raise InvalidParameterError(name, value, valid) from None
+    if not np.isfinite(x) or x < 0.0 or (strict and x == 0.0):
+        raise InvalidParameterError(name, value, valid)
     return x
+
+
+def positive(value: Any, name: str, *, unit: str = "") -> float:
+    """Return ``value`` as a float after checking it is finite and > 0."""
+    return _bounded_below(value, name, unit, strict=True)
 
 
 def non_negative(value: Any, name: str, *, unit: str = "") -> float:
     """Return ``value`` as a float after checking it is finite and >= 0."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InvalidParameterError(
-            name, value, f"a finite number >= 0{(' ' + unit) if unit else ''}"
-        ) from None
-    if not np.isfinite(x) or x < 0.0:
-        raise InvalidParameterError(name, value, f"a finite number >= 0{(' ' + unit) if unit else ''}")
-    return x
+    return _bounded_below(value, name, unit, strict=False)
 
 
 def one_of(value: Any, name: str, choices: Sequence[str]) -> str:

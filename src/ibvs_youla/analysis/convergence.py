@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._validation import positive
+from .metrics import pose_error_series
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..simulation.results import SimulationResult
@@ -148,12 +149,6 @@ def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> 
 
 
 def _pose_within(result: SimulationResult, tol: Tolerances) -> np.ndarray:
-    """Per sample: camera position and rotation errors within tolerance (vectorized)."""
-    T, T_goal = result.camera_pose, result.camera_pose_target
-    position_mm = 1000.0 * np.linalg.norm(T[:, :3, 3] - T_goal[:3, 3], axis=1)
-    R_err = np.einsum("nji,jk->nik", T[:, :3, :3], T_goal[:3, :3])  # R^T R_goal
-    skew = R_err - np.transpose(R_err, (0, 2, 1))
-    sin = 0.5 * np.linalg.norm(np.stack([skew[:, 2, 1], skew[:, 0, 2], skew[:, 1, 0]], axis=1), axis=1)
-    cos = 0.5 * (np.trace(R_err, axis1=1, axis2=2) - 1.0)
-    rotation_deg = np.degrees(np.arctan2(sin, cos))
+    """Per sample: camera position and rotation errors within tolerance."""
+    position_mm, rotation_deg = pose_error_series(result.camera_pose, result.camera_pose_target)
     return (position_mm <= tol.position_mm) & (rotation_deg <= tol.rotation_deg)

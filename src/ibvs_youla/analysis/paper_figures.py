@@ -9,6 +9,7 @@ dashed.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -35,6 +36,30 @@ def _new_figure(n_rows: int, title: str) -> tuple[Figure, np.ndarray]:
     return fig, axes
 
 
+def _comparison(
+    feedback_only: SimulationResult,
+    feedforward_feedback: SimulationResult,
+    title: str,
+    rows: list[
+        tuple[str, Callable[[SimulationResult], np.ndarray], Callable[[SimulationResult], float], str]
+    ],
+) -> Figure:
+    """Two columns (fb | ff+fb), one row per (label, signal, target, colour); targets dashed."""
+    fig, axes = _new_figure(len(rows), title)
+    runs = ((feedback_only, "feedback only"), (feedforward_feedback, "feedforward + feedback"))
+    for col, (res, name) in enumerate(runs):
+        for row, (label, signal, target, colour) in enumerate(rows):
+            ax = axes[row, col]
+            ax.plot(res.t, signal(res), lw=1.4, color=colour)
+            ax.axhline(target(res), ls="--", lw=1.0, color="k")
+            ax.set_ylabel(label)
+            ax.grid(alpha=0.3)
+        axes[0, col].set_title(name)
+        axes[-1, col].set_xlabel("t [s]")
+    fig.tight_layout()
+    return fig
+
+
 def plot_joint_comparison(
     feedback_only: SimulationResult,
     feedforward_feedback: SimulationResult,
@@ -45,21 +70,16 @@ def plot_joint_comparison(
     The dashed line is the encoder value at which the camera reaches its target pose,
     ``q_target - d`` (ERRATA 14; ``d = 0`` without disturbance).
     """
-    fig, axes = _new_figure(6, title)
-    for col, (res, name) in enumerate(
-        ((feedback_only, "feedback only"), (feedforward_feedback, "feedforward + feedback"))
-    ):
-        q_goal = np.asarray(res.metadata["q_encoder_goal"])
-        for j in range(6):
-            ax = axes[j, col]
-            ax.plot(res.t, np.degrees(res.q[:, j]), lw=1.4, color="C0")
-            ax.axhline(np.degrees(q_goal[j]), ls="--", lw=1.0, color="k")
-            ax.set_ylabel(f"q{j + 1} [deg]")
-            ax.grid(alpha=0.3)
-        axes[0, col].set_title(name)
-        axes[-1, col].set_xlabel("t [s]")
-    fig.tight_layout()
-    return fig
+    rows = [
+        (
+            f"q{j + 1} [deg]",
+            lambda r, j=j: np.degrees(r.q[:, j]),
+            lambda r, j=j: float(np.degrees(r.metadata["q_encoder_goal"][j])),
+            "C0",
+        )
+        for j in range(6)
+    ]
+    return _comparison(feedback_only, feedforward_feedback, title, rows)
 
 
 def plot_image_comparison(
@@ -71,17 +91,13 @@ def plot_image_comparison(
 
     Coordinates are in millimetres on the sensor (the paper's unit is metres; Eq. (9)-(11)).
     """
-    fig, axes = _new_figure(9, title)
-    for col, (res, name) in enumerate(
-        ((feedback_only, "feedback only"), (feedforward_feedback, "feedforward + feedback"))
-    ):
-        for k in range(9):
-            ax = axes[k, col]
-            ax.plot(res.t, _SENSOR_MM * res.features[:, k], lw=1.4, color=f"C{k // 3}")
-            ax.axhline(_SENSOR_MM * res.feature_target[k], ls="--", lw=1.0, color="k")
-            ax.set_ylabel(f"{FEATURE_LABELS[k]} [mm]")
-            ax.grid(alpha=0.3)
-        axes[0, col].set_title(name)
-        axes[-1, col].set_xlabel("t [s]")
-    fig.tight_layout()
-    return fig
+    rows = [
+        (
+            f"{FEATURE_LABELS[k]} [mm]",
+            lambda r, k=k: _SENSOR_MM * r.features[:, k],
+            lambda r, k=k: float(_SENSOR_MM * r.feature_target[k]),
+            f"C{k // 3}",
+        )
+        for k in range(9)
+    ]
+    return _comparison(feedback_only, feedforward_feedback, title, rows)

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
     from ..simulation.results import SimulationResult
@@ -36,6 +37,36 @@ def _new_figure(n_rows: int, title: str) -> tuple[Figure, np.ndarray]:
     return fig, axes
 
 
+TRANSIENT_S = 0.05  # [s] the paper's feedforward acts within a few milliseconds
+
+
+def _zoom_past_transient(ax: Axes, t: np.ndarray, y: np.ndarray, y_goal: float) -> None:
+    """Scale the axis to the signal after the first 50 ms when an early spike dwarfs it.
+
+    The paper's 1 ms feedforward (ERRATA 11) throws the features far across the (virtual)
+    sensor in the first milliseconds; plotted to scale, that spike hides the convergence.
+    The spike is not hidden: the panel says how far it went.
+    """
+    late = y[t >= t[0] + TRANSIENT_S]
+    if late.size < 2 or not np.all(np.isfinite(y)):
+        return
+    lo, hi = min(late.min(), y_goal), max(late.max(), y_goal)
+    span = max(hi - lo, 1e-12)
+    if (y.max() - y.min()) <= 3.0 * span:
+        return
+    ax.set_ylim(lo - 0.15 * span, hi + 0.15 * span)
+    ax.text(
+        0.99,
+        0.95,
+        f"off scale in the first {1000 * TRANSIENT_S:.0f} ms; full range {y.min():.3g} to {y.max():.3g}",
+        transform=ax.transAxes,
+        ha="right",
+        va="top",
+        fontsize=7,
+        color="0.3",
+    )
+
+
 def _comparison(
     feedback_only: SimulationResult,
     feedforward_feedback: SimulationResult,
@@ -50,8 +81,10 @@ def _comparison(
     for col, (res, name) in enumerate(runs):
         for row, (label, signal, target, colour) in enumerate(rows):
             ax = axes[row, col]
-            ax.plot(res.t, signal(res), lw=1.4, color=colour)
-            ax.axhline(target(res), ls="--", lw=1.0, color="k")
+            y, y_goal = signal(res), target(res)
+            ax.plot(res.t, y, lw=1.4, color=colour)
+            ax.axhline(y_goal, ls="--", lw=1.0, color="k")
+            _zoom_past_transient(ax, res.t, y, y_goal)
             ax.set_ylabel(label)
             ax.grid(alpha=0.3)
         axes[0, col].set_title(name)

@@ -1,0 +1,67 @@
+"""Figures 13-16 comparison plots: data drawn as recorded, targets dashed, spikes annotated."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from ibvs_youla.analysis.paper_figures import plot_image_comparison, plot_joint_comparison
+from ibvs_youla.simulation.results import SimulationResult
+
+
+def _result(features, q):
+    n = len(features)
+    zeros = np.zeros((n, 6))
+    target = np.full(9, 1e-3)
+    return SimulationResult(
+        t=np.linspace(0.0, 2.0, n),
+        q=q,
+        q_true=q,
+        dq=zeros,
+        q_ref=q,
+        q_ff=zeros,
+        q_fb=q,
+        tau=zeros,
+        features=features,
+        feature_target=target,
+        feature_error=target - features,
+        camera_pose=np.tile(np.eye(4), (n, 1, 1)),
+        camera_pose_target=np.eye(4),
+        visible=np.ones((n, 3), bool),
+        update_time=np.zeros(0),
+        metadata={"q_encoder_goal": [0.1] * 6},
+    )
+
+
+def test_panels_show_the_recorded_signals_and_dashed_targets():
+    n = 201
+    smooth = np.outer(1.0 - np.exp(-np.linspace(0, 2, n) * 3), np.full(9, 1e-3))
+    q = np.outer(np.linspace(0, 0.1, n), np.ones(6))
+    fig = plot_image_comparison(_result(smooth, q), _result(smooth, q), "test")
+    axes = fig.axes
+    assert len(axes) == 18
+    np.testing.assert_allclose(axes[0].lines[0].get_ydata(), 1e3 * smooth[:, 0])  # mm on the sensor
+    assert axes[0].lines[1].get_linestyle() == "--"
+    np.testing.assert_allclose(axes[0].lines[1].get_ydata(), 1.0)
+    fig_q = plot_joint_comparison(_result(smooth, q), _result(smooth, q), "test")
+    np.testing.assert_allclose(fig_q.axes[0].lines[1].get_ydata(), np.degrees(0.1))
+    plt.close("all")
+
+
+def test_an_early_spike_is_zoomed_past_and_stated():
+    n = 201
+    t = np.linspace(0, 2, n)
+    smooth = np.outer(1.0 - np.exp(-t * 3), np.full(9, 1e-3))
+    spiky = smooth.copy()
+    spiky[1, :] = 0.2  # 200 mm at t = 10 ms, like the paper's feedforward on virtual points
+    q = np.zeros((n, 6))
+    fig = plot_image_comparison(_result(smooth, q), _result(spiky, q), "test")
+    left, right = fig.axes[0], fig.axes[1]
+    assert not left.texts  # nothing to zoom past
+    low, high = right.get_ylim()
+    assert high < 2.0  # [mm]: scaled to the late signal, not to the 200 mm spike
+    assert "full range" in right.texts[0].get_text() and "200" in right.texts[0].get_text()
+    plt.close("all")

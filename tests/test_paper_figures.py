@@ -61,7 +61,7 @@ def test_an_early_spike_is_zoomed_past_and_stated():
     fig = plot_image_comparison(_result(smooth, q), _result(spiky, q), "test")
     left, right = fig.axes[0], fig.axes[1]
     assert not left.texts  # nothing to zoom past
-    low, high = right.get_ylim()
+    _low, high = right.get_ylim()
     assert high < 2.0  # [mm]: scaled to the late signal, not to the 200 mm spike
     assert "full range" in right.texts[0].get_text() and "200" in right.texts[0].get_text()
     plt.close("all")

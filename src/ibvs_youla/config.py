@@ -1,0 +1,376 @@
+"""Run configurations in TOML: a scenario, simulation settings and run options.
+
+A file has up to five tables; every key is optional and every unknown key or
+invalid value raises :class:`~ibvs_youla.exceptions.ConfigError` naming the key
+(``"settings.zeta"``), the value received and what is valid::
+
+    [scenario]                     # omitted: the command line names the scenario
+    preset = "paper-1"             # start from a named scenario (scenarios.NAMES) ...
+    name = "my-run"                # ... and override any of these:
+    description = "free text"
+    q_start_deg = [0, 0, 0, 0, 0, 0]           # initial encoder angles [deg]
+    q_target_deg = [0.48, 2.21, 2.05, -82.68, 9.46, 77.47]  # true target angles [deg]
+    markers_O = [[-0.5, 0, 0], [0, 0, 0.5], [2, -2, 0]]    # base frame [m]
+    joint_offset_deg = 1.0         # disturbance d [deg]: one number or six (ERRATA 14)
+    virtual_points = true          # project markers behind the camera (ERRATA 13)
+
+    [settings]                     # SimulationSettings fields over a preset:
+    preset = "default"             # SimulationSettings(): camera at 100 Hz (ZED 2), or
+                                   # "paper": SimulationSettings.paper(), camera at 1 kHz
+    tau_in = 0.01                  # [s]
+    omega_n = 10.0                 # [rad/s]
+    zeta = 10.0
+    feedforward = "paper"          # or "smooth"
+    sv_policy = { kind = "damped", threshold = 1e-3 }
+    # joint_rate_hz, camera_rate_hz, tau_forward, smooth_speed_fraction, linearize_at,
+    # model_inertia_scale, saturate, estimate_from_image, branch_prior, record_every
+
+    [run]
+    controller = "ff+fb"           # or "fb"
+    adaptive = true                # false: J evaluated once (settings.linearize_at)
+    duration = 10.0                # [s]
+
+    [camera]                       # StereoCamera.zed2(preset, mode, frame_rate)
+    preset = "paper"               # or "zed2" (the real ZED 2, ERRATA 15)
+    mode = "HD720"
+
+    [arm]                          # Arm.irb4600(actuator)
+    actuator = "paper"             # or "reflected"
+
+Without ``preset`` a ``[scenario]`` table must give ``q_start_deg``, ``q_target_deg``
+and ``markers_O``. Joint angles are in degrees, as in the paper's Table 1; everything
+else is SI.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from . import scenarios as _scenarios
+from .exceptions import (
+    ConfigError,
+    DegenerateMarkersError,
+    IbvsYoulaError,
+    InvalidArrayError,
+    InvalidParameterError,
+)
+from .model.camera import ZED_MODES
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .model.arm import Arm
+    from .model.camera import StereoCamera
+    from .scenarios import Scenario
+    from .simulation.settings import SimulationSettings
+
+__all__ = ["RunConfig", "load_config", "parse_config"]
+
+Check = Callable[[str, Any], Any]
+
+
+# ----------------------------------------------------------------------------- value checks
+def _number(key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(key, value, "a finite number")
+    return float(value)
+
+
+def _integer(key: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ConfigError(key, value, "an integer")
+    return value
+
+
+def _boolean(key: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise ConfigError(key, value, "true or false")
+    return value
+
+
+def _text(key: str, value: Any) -> str:
+    if not isinstance(value, str):
+        raise ConfigError(key, value, "a string")
+    return value
+
+
+def _choice(*choices: str) -> Check:
+    def check(key: str, value: Any) -> str:
+        if value not in choices:
+            raise ConfigError(key, value, " or ".join(repr(c) for c in choices))
+        return value
+
+    return check
+
+
+def _vector(n: int, *, scalar_ok: bool = False) -> Check:
+    def check(key: str, value: Any) -> np.ndarray:
+        if scalar_ok and not isinstance(value, list):
+            return np.full(n, _number(key, value))
+        valid = f"a list of {n} finite numbers" + (" or one number" if scalar_ok else "")
+        if not isinstance(value, list) or len(value) != n:
+            raise ConfigError(key, value, valid)
+        try:
+            return np.array([_number(key, v) for v in value])
+        except ConfigError:
+            raise ConfigError(key, value, valid) from None
+
+    return check
+
+
+def _points(key: str, value: Any) -> np.ndarray:
+    valid = "three points [[x, y, z], [x, y, z], [x, y, z]] in metres"
+    if not isinstance(value, list) or len(value) != 3:
+        raise ConfigError(key, value, valid)
+    try:
+        return np.array([_vector(3)(key, p) for p in value])
+    except ConfigError:
+        raise ConfigError(key, value, valid) from None
+
+
+def _settings_keys() -> dict[str, Check]:
+    from .simulation.settings import BRANCH_PRIORS, FEEDFORWARD_KINDS, LINEARIZE_AT
+
+    return {
+        "preset": _choice(*SETTINGS_PRESETS),
+        "joint_rate_hz": _number,
+        "camera_rate_hz": _number,
+        "tau_in": _number,
+        "omega_n": _number,
+        "zeta": _number,
+        "tau_forward": _number,
+        "feedforward": _choice(*FEEDFORWARD_KINDS),
+        "smooth_speed_fraction": _number,
+        "sv_policy": _sv_table,
+        "linearize_at": _choice(*LINEARIZE_AT),
+        "model_inertia_scale": _number,
+        "saturate": _boolean,
+        "estimate_from_image": _boolean,
+        "branch_prior": _choice(*BRANCH_PRIORS),
+        "record_every": _integer,
+    }
+
+
+_SCENARIO_KEYS: dict[str, Check] = {
+    "preset": _choice(*_scenarios.NAMES),
+    "name": _text,
+    "description": _text,
+    "q_start_deg": _vector(6),
+    "q_target_deg": _vector(6),
+    "markers_O": _points,
+    "joint_offset_deg": _vector(6, scalar_ok=True),
+    "virtual_points": _boolean,
+}
+
+
+def _run_keys() -> dict[str, Check]:
+    from .simulation.simulate import CONTROLLERS
+
+    return {"controller": _choice(*CONTROLLERS), "adaptive": _boolean, "duration": _number}
+
+
+_CAMERA_KEYS: dict[str, Check] = {
+    "preset": _choice("paper", "zed2"),
+    "mode": _choice(*ZED_MODES),
+    "frame_rate": _number,
+}
+_ARM_KEYS: dict[str, Check] = {"actuator": _choice("paper", "reflected")}
+_SV_KEYS: dict[str, Check] = {"kind": _choice("damped", "truncate"), "threshold": _number}
+
+
+def _sv_table(key: str, value: Any) -> dict[str, Any]:
+    return _table({"sv_policy": value}, "sv_policy", _SV_KEYS, prefix="settings.")
+
+
+TABLES = ("scenario", "settings", "run", "camera", "arm")
+SETTINGS_PRESETS = ("default", "paper")
+
+
+def _table(
+    data: Mapping[str, Any], table: str, keys: Mapping[str, Check], prefix: str = ""
+) -> dict[str, Any]:
+    """Check the keys and value types of ``data[table]``; return the converted values."""
+    raw = data.get(table, {})
+    if not isinstance(raw, Mapping):
+        raise ConfigError(prefix + table, raw, f"a table with keys {', '.join(keys)}")
+    out = {}
+    for key, value in raw.items():
+        name = f"{prefix}{table}.{key}"
+        if key not in keys:
+            raise ConfigError(name, value, f"a key of [{prefix}{table}]: {', '.join(keys)}")
+        out[key] = keys[key](name, value)
+    return out
+
+
+def _rename(err: IbvsYoulaError, table: str, aliases: Mapping[str, str] | None = None) -> ConfigError:
+    """A library validation error re-raised as a ConfigError on ``table.key``."""
+    if isinstance(err, InvalidParameterError):
+        key = (aliases or {}).get(err.name, err.name)
+        return ConfigError(f"{table}.{key}", err.value, err.valid)
+    if isinstance(err, DegenerateMarkersError):
+        return ConfigError(
+            f"{table}.markers_O", np.asarray(err.points).tolist(), "three non-collinear points"
+        )
+    if isinstance(err, InvalidArrayError):
+        key = (aliases or {}).get(err.name, err.name)
+        return ConfigError(f"{table}.{key}", err.received, err.expected)
+    return ConfigError(table, "these values", str(err))
+
+
+# ----------------------------------------------------------------------------- the configuration
+@dataclass(frozen=True)
+class RunConfig:
+    """A loaded configuration; ``None`` fields were not given in the file.
+
+    Attributes:
+        scenario: The ``[scenario]`` table as a Scenario, or None without that table.
+        settings: ``[settings]`` over the paper's defaults.
+        controller: ``[run] controller`` (``"fb"``/``"ff+fb"``) or None.
+        adaptive: ``[run] adaptive`` or None.
+        duration: ``[run] duration`` [s] or None.
+        camera_options: Keyword arguments of ``StereoCamera.zed2`` from ``[camera]``.
+        arm_options: Keyword arguments of ``Arm.irb4600`` from ``[arm]``.
+        source: Where it was read from (a path, or ``"<dict>"``).
+    """
+
+    scenario: Scenario | None
+    settings: SimulationSettings
+    controller: str | None = None
+    adaptive: bool | None = None
+    duration: float | None = None
+    camera_options: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    arm_options: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    source: str = "<dict>"
+
+    def make_camera(self) -> StereoCamera:
+        """The stereo camera of ``[camera]`` (default: the paper's ZED 2 preset)."""
+        from .model.camera import StereoCamera
+
+        try:
+            return StereoCamera.zed2(**self.camera_options)
+        except InvalidParameterError as err:  # e.g. a frame rate the mode does not offer
+            raise _rename(err, "camera") from None
+
+    def make_arm(self) -> Arm:
+        """The arm of ``[arm]`` (default: the IRB 4600 with the paper's actuator terms)."""
+        from .model.arm import Arm
+
+        return Arm.irb4600(**self.arm_options)
+
+
+def _scenario(values: dict[str, Any]) -> Scenario:
+    from .scenarios import Scenario
+
+    preset = values.pop("preset", None)
+    base = _scenarios.get(preset) if preset is not None else None
+    required = ("q_start_deg", "q_target_deg", "markers_O")
+    missing = [k for k in required if k not in values]
+    if base is None and missing:
+        raise ConfigError(
+            f"scenario.{missing[0]}",
+            None,
+            f"a value, or scenario.preset = one of {', '.join(repr(n) for n in _scenarios.NAMES)}",
+        )
+    fields: dict[str, Any] = (
+        {} if base is None else {f.name: getattr(base, f.name) for f in dataclasses.fields(base)}
+    )
+    for key, value in values.items():
+        if key.endswith("_deg"):
+            fields[key[: -len("_deg")]] = np.radians(value)
+        else:
+            fields[key] = value
+    if base is None:
+        fields.setdefault("name", "custom")
+    aliases = {"q_start": "q_start_deg", "q_target": "q_target_deg", "joint_offset": "joint_offset_deg"}
+    try:
+        return Scenario(**fields)
+    except IbvsYoulaError as err:
+        raise _rename(err, "scenario", aliases) from None
+
+
+def _settings(values: dict[str, Any], default_preset: str) -> SimulationSettings:
+    from .control.outer import SingularValuePolicy
+    from .simulation.settings import SimulationSettings
+
+    preset = values.pop("preset", default_preset)
+    build = SimulationSettings.paper if preset == "paper" else SimulationSettings
+    if "sv_policy" in values:
+        try:
+            values["sv_policy"] = SingularValuePolicy(**values["sv_policy"])
+        except IbvsYoulaError as err:
+            raise _rename(err, "settings.sv_policy") from None
+    try:
+        return build(**values)
+    except IbvsYoulaError as err:
+        raise _rename(err, "settings") from None
+
+
+def parse_config(
+    data: Mapping[str, Any], source: str = "<dict>", *, settings_preset: str = "default"
+) -> RunConfig:
+    """Validate a parsed TOML document (nested dicts) and build the run configuration.
+
+    Args:
+        data: Tables ``scenario``, ``settings``, ``run``, ``camera``, ``arm`` (module docstring).
+        source: Where ``data`` came from, kept in :attr:`RunConfig.source`.
+        settings_preset: The settings that ``[settings]`` overrides when it names no
+            ``preset``: ``"default"`` (``SimulationSettings()``, camera at 100 Hz) or
+            ``"paper"`` (``SimulationSettings.paper()``, camera at the 1 kHz joint rate).
+
+    Raises:
+        ConfigError: an unknown table or key, or an invalid value; ``err.name`` is the
+            dotted key, ``err.value`` the value received, ``err.valid`` what is valid.
+    """
+    if not isinstance(data, Mapping):
+        raise ConfigError("config", data, "a mapping of TOML tables")
+    for table, value in data.items():
+        if table not in TABLES:
+            raise ConfigError(table, value, f"a table: {', '.join(f'[{t}]' for t in TABLES)}")
+    scenario_values = _table(data, "scenario", _SCENARIO_KEYS)
+    settings_values = _table(data, "settings", _settings_keys())
+    run = _table(data, "run", _run_keys())
+    if "duration" in run and run["duration"] <= 0.0:
+        raise ConfigError("run.duration", run["duration"], "a finite number > 0 s")
+    return RunConfig(
+        scenario=_scenario(scenario_values) if "scenario" in data else None,
+        settings=_settings(settings_values, _choice(*SETTINGS_PRESETS)("settings_preset", settings_preset)),
+        controller=run.get("controller"),
+        adaptive=run.get("adaptive"),
+        duration=run.get("duration"),
+        camera_options=_table(data, "camera", _CAMERA_KEYS),
+        arm_options=_table(data, "arm", _ARM_KEYS),
+        source=source,
+    )
+
+
+def load_config(path: str | Path, *, settings_preset: str = "default") -> RunConfig:
+    """Read and validate a TOML run configuration (schema in the module docstring).
+
+    ``settings_preset`` is what ``[settings]`` overrides when it names no ``preset``
+    (see :func:`parse_config`).
+
+    Raises:
+        ConfigError: the file is missing or is not valid TOML (``err.name == "config"``),
+            or a key is unknown or has an invalid value (``err.name`` is the dotted key).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError("config", str(path), f"a readable TOML file ({exc.strerror})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError("config", str(path), f"a valid TOML file ({exc})") from None
+    return parse_config(data, source=str(path), settings_preset=settings_preset)

@@ -1,0 +1,340 @@
+"""Figures of one simulated run, and of a controller design.
+
+Run figures (each function takes a :class:`~ibvs_youla.simulation.results.SimulationResult`
+and returns a matplotlib ``Figure``):
+
+* :func:`plot_joint_angles` — six encoder angles [deg] with the goal ``q_target - d``
+  dashed (ERRATA 14);
+* :func:`plot_image_coordinates` — the nine features ``u_l, u_r, v`` of each marker
+  [mm on the sensor] with their targets dashed (Eq. (9)-(11), (24));
+* :func:`plot_feature_error_norm` — ``||e||`` and the per-marker norms on a log scale;
+* :func:`plot_image_plane` — u against v for the left and right lenses, with the
+  sensor outline (+-w/2, +-h/2), the start (circle) and the target (cross) of each marker;
+* :func:`plot_joint_speeds_torques` — joint speeds [deg/s] and torques [N m] with the
+  arm's limits +-dq_max, +-tau_max dashed (ERRATA 11, 16).
+
+:func:`plot_result` returns them all by name and :func:`save_result_figures` writes
+them as PNG files. :func:`plot_design` draws Bode magnitude and phase, step responses
+and the pole-zero map of python-control transfer functions.
+
+Figures are built with ``matplotlib.figure.Figure`` (no pyplot): they need no display,
+render with Agg when saved, never change the caller's backend and are freed with the
+object. In a notebook, ``display(fig)`` shows one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .paper_figures import FEATURE_LABELS
+
+if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from ..model.camera import StereoCamera
+    from ..simulation.results import SimulationResult
+
+__all__ = [
+    "RESULT_FIGURES",
+    "plot_design",
+    "plot_feature_error_norm",
+    "plot_image_coordinates",
+    "plot_image_plane",
+    "plot_joint_angles",
+    "plot_joint_speeds_torques",
+    "plot_result",
+    "save_result_figures",
+]
+
+MM = 1e3  # sensor metres -> millimetres
+RESULT_FIGURES = (
+    "joint_angles",
+    "image_coordinates",
+    "feature_error_norm",
+    "image_plane",
+    "joint_speeds_torques",
+)
+_TARGET = dict(ls="--", lw=1.0, color="k")
+_LIMIT = dict(ls="--", lw=1.0, color="C3")
+
+
+def _figure(n_rows: int, n_cols: int, title: str, size: tuple[float, float], **kw: Any) -> tuple[Figure, Any]:
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=size, layout="constrained")
+    axes = fig.subplots(n_rows, n_cols, squeeze=False, **kw)
+    fig.suptitle(title)
+    return fig, axes
+
+
+def _title(result: SimulationResult, what: str) -> str:
+    meta = result.metadata
+    if "scenario" not in meta:
+        return what
+    loop = "adaptive" if meta.get("adaptive", True) else "fixed"
+    return f"{meta['scenario']}, {meta.get('controller', '?')} ({loop} outer loop): {what}"
+
+
+def plot_joint_angles(result: SimulationResult) -> Figure:
+    """Encoder joint angles q [deg] against time, one panel per joint.
+
+    ``ax.lines[0]`` is ``degrees(q[:, j])``; ``ax.lines[1]`` (dashed) the encoder goal
+    ``q_target - d`` from ``metadata["q_encoder_goal"]``, when the metadata has it.
+    """
+    fig, axes = _figure(3, 2, _title(result, "joint angles"), (10.0, 7.0), sharex=True)
+    goal = result.metadata.get("q_encoder_goal")
+    for j, ax in enumerate(axes.flat[: result.q.shape[1]]):
+        ax.plot(result.t, np.degrees(result.q[:, j]), lw=1.4, label="q (encoder)")
+        if goal is not None:
+            ax.axhline(np.degrees(goal[j]), **_TARGET, label="goal q_target - d")
+        ax.set_ylabel(f"q{j + 1} [deg]")
+        ax.grid(alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel("t [s]")
+    axes[0, 0].legend(loc="best", fontsize="small")
+    return fig
+
+
+def plot_image_coordinates(result: SimulationResult) -> Figure:
+    """The nine stereo features [mm on the sensor] against time; targets dashed.
+
+    Row i is marker i + 1, columns ``u_l, u_r, v`` (Eq. (24) order): panel k (row-major)
+    has ``ax.lines[0] = 1e3 * features[:, k]`` and ``ax.lines[1]`` the target.
+    """
+    fig, axes = _figure(3, 3, _title(result, "image coordinates"), (11.0, 7.0), sharex=True)
+    for k, ax in enumerate(axes.flat):
+        ax.plot(result.t, MM * result.features[:, k], lw=1.4, color=f"C{k // 3}")
+        ax.axhline(MM * result.feature_target[k], **_TARGET)
+        ax.set_ylabel(f"{FEATURE_LABELS[k]} [mm]")
+        ax.grid(alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel("t [s]")
+    return fig
+
+
+def plot_feature_error_norm(result: SimulationResult) -> Figure:
+    """Image error norm ``||e||`` [m] on a log scale, total and per marker.
+
+    ``ax.lines[0]`` is the norm over the nine coordinates, ``ax.lines[1:4]`` the norm of
+    each marker's three coordinates.
+    """
+    fig, axes = _figure(1, 1, _title(result, "image error norm"), (8.0, 4.5))
+    ax = axes[0, 0]
+    e = result.feature_error
+    ax.plot(result.t, np.linalg.norm(e, axis=1), lw=1.8, color="k", label="||e|| (9 coordinates)")
+    for i in range(e.shape[1] // 3):
+        ax.plot(result.t, np.linalg.norm(e[:, 3 * i : 3 * i + 3], axis=1), lw=1.0, label=f"marker {i + 1}")
+    ax.set_yscale("log")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("||e|| [m on the sensor]")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(loc="best", fontsize="small")
+    return fig
+
+
+def plot_image_plane(result: SimulationResult, camera: StereoCamera | None = None) -> Figure:
+    """Marker trajectories in the image of each lens (v down), with the sensor outline.
+
+    Left panel: ``(u_l, v)``, right panel: ``(u_r, v)``, in mm on the sensor. In each panel
+    ``ax.lines[i]`` (i = 0, 1, 2) is marker i + 1's trajectory, ``ax.lines[3 + i]`` its start
+    (circle) and ``ax.lines[6 + i]`` its target (cross); ``ax.patches[0]`` is the sensor
+    rectangle [-w/2, w/2] x [-h/2, h/2]. The paper's virtual markers (ERRATA 13) can lie
+    far outside it.
+
+    Args:
+        result: The run.
+        camera: Gives the sensor extent; default the paper's ZED 2 (``StereoCamera.zed2()``).
+    """
+    from matplotlib.patches import Rectangle
+
+    if camera is None:
+        from ..model.camera import StereoCamera
+
+        camera = StereoCamera.zed2()
+    w, h = MM * camera.sensor_width, MM * camera.sensor_height
+    fig, axes = _figure(1, 2, _title(result, "image plane"), (11.0, 5.0))
+    p, target = MM * result.features, MM * result.feature_target
+    n_points = p.shape[1] // 3
+    for col, (ax, lens) in enumerate(zip(axes[0], ("left", "right"), strict=True)):
+        u = [3 * i + col for i in range(n_points)]  # u_l or u_r of each marker
+        v = [3 * i + 2 for i in range(n_points)]
+        for i in range(n_points):
+            ax.plot(p[:, u[i]], p[:, v[i]], lw=1.4, color=f"C{i}", label=f"marker {i + 1}")
+        for i in range(n_points):
+            ax.plot(p[0, u[i]], p[0, v[i]], "o", color=f"C{i}", ms=6, mfc="none")
+        for i in range(n_points):
+            ax.plot(target[u[i]], target[v[i]], "x", color=f"C{i}", ms=9, mew=2)
+        ax.add_patch(
+            Rectangle((-w / 2, -h / 2), w, h, fill=False, ls="-", lw=1.2, color="0.3", label="sensor")
+        )
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.invert_yaxis()  # v (and y_C) point down
+        ax.set_title(f"{lens} lens (o start, x target)")
+        ax.set_xlabel(f"u_{lens[0]} [mm]")
+        ax.set_ylabel("v [mm]")
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(loc="best", fontsize="small")
+    return fig
+
+
+def plot_joint_speeds_torques(result: SimulationResult, arm: Any = None) -> Figure:
+    """Joint speeds [deg/s] (left) and torques [N m] (right) with the limits dashed.
+
+    Row j is joint j + 1: ``ax.lines[0]`` the signal, ``ax.lines[1]`` and ``ax.lines[2]``
+    the limits +limit and -limit. Each title gives the peak as a multiple of the limit.
+
+    Args:
+        result: The run.
+        arm: Anything with ``dq_max`` [rad/s] and ``tau_max`` [N m] (n,); default the
+            IRB 4600 (``Arm.irb4600()``).
+    """
+    if arm is None:
+        from ..model.arm import Arm
+
+        arm = Arm.irb4600()
+    n = result.q.shape[1]
+    fig, axes = _figure(n, 2, _title(result, "joint speeds and torques"), (11.0, 1.5 * n + 1.0), sharex=True)
+    columns = (
+        (np.degrees(result.dq), np.degrees(np.asarray(arm.dq_max, dtype=float)), "dq{} [deg/s]"),
+        (result.tau, np.asarray(arm.tau_max, dtype=float), "tau{} [N m]"),
+    )
+    for col, (x, limit, label) in enumerate(columns):
+        for j in range(n):
+            ax = axes[j, col]
+            ax.plot(result.t, x[:, j], lw=1.2, color="C0")
+            ax.axhline(limit[j], **_LIMIT)
+            ax.axhline(-limit[j], **_LIMIT)
+            peak = np.nanmax(np.abs(x[:, j])) if len(x) else np.nan
+            ax.set_title(f"peak {peak / limit[j]:.3g} x limit", fontsize="small", loc="right")
+            ax.set_ylabel(label.format(j + 1))
+            ax.grid(alpha=0.3)
+        axes[-1, col].set_xlabel("t [s]")
+    return fig
+
+
+def plot_result(
+    result: SimulationResult, arm: Any = None, camera: StereoCamera | None = None
+) -> dict[str, Figure]:
+    """Every run figure, by name (:data:`RESULT_FIGURES` order)."""
+    return {
+        "joint_angles": plot_joint_angles(result),
+        "image_coordinates": plot_image_coordinates(result),
+        "feature_error_norm": plot_feature_error_norm(result),
+        "image_plane": plot_image_plane(result, camera),
+        "joint_speeds_torques": plot_joint_speeds_torques(result, arm),
+    }
+
+
+def save_result_figures(
+    result: SimulationResult,
+    out_dir: str | Path,
+    arm: Any = None,
+    camera: StereoCamera | None = None,
+    *,
+    dpi: int = 110,
+) -> dict[str, Path]:
+    """Write every run figure as ``out_dir/<name>.png`` (folder created); return the paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {}
+    for name, fig in plot_result(result, arm, camera).items():
+        paths[name] = out / f"{name}.png"
+        fig.savefig(paths[name], dpi=dpi)
+    return paths
+
+
+# ----------------------------------------------------------------------------- designs
+def _frequency_grid(systems: list[Any]) -> np.ndarray:
+    """Log grid two decades either side of the non-zero poles and zeros [rad/s]."""
+    import control as ct
+
+    radii = [abs(r) for sys in systems for r in (*ct.poles(sys), *ct.zeros(sys)) if abs(r) > 1e-12]
+    lo, hi = (min(radii), max(radii)) if radii else (1.0, 1.0)
+    return np.logspace(np.log10(lo) - 2.0, np.log10(hi) + 2.0, 800)
+
+
+def _snap_real(roots: Any) -> np.ndarray:
+    """Roots with imaginary parts below 1e-4 |root| set to 0 (a repeated root splits numerically)."""
+    r = np.asarray(roots, dtype=complex)
+    return np.where(np.abs(r.imag) < 1e-4 * np.maximum(np.abs(r), 1e-12), r.real, r)
+
+
+def _pole_zero(ax: Axes, systems: Mapping[str, Any]) -> None:
+    import control as ct
+
+    radius = 0.0
+    for i, (label, sys) in enumerate(systems.items()):
+        p, z = _snap_real(ct.poles(sys)), _snap_real(ct.zeros(sys))
+        radius = max(radius, *np.abs(p), *np.abs(z))
+        ax.plot(p.real, p.imag, "x", color=f"C{i}", ms=9, mew=2, label=f"{label} poles")
+        if z.size:
+            ax.plot(z.real, z.imag, "o", color=f"C{i}", ms=8, mfc="none", label=f"{label} zeros")
+    ax.axvline(0.0, color="0.5", lw=0.8)
+    ax.axhline(0.0, color="0.5", lw=0.8)
+    ax.set_xscale("symlog", linthresh=1.0)
+    ax.margins(0.15)
+    top = max(ax.get_ylim()[1], 0.2 * radius)
+    ax.set_ylim(-top, top)
+    ax.set_xlabel("Re s [rad/s] (symlog)")
+    ax.set_ylabel("Im s [rad/s]")
+    ax.set_title("pole-zero map", fontsize="medium")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize="x-small")
+
+
+def plot_design(
+    bode: Mapping[str, Any],
+    step: Mapping[str, Any],
+    title: str,
+    *,
+    omega: Any = None,
+    t_final: float | None = None,
+) -> Figure:
+    """Bode magnitude and phase, step responses and pole-zero map of SISO transfer functions.
+
+    Frequency and step responses come from python-control (``frequency_response``,
+    ``step_response``).
+
+    Args:
+        bode: Label -> transfer function for the Bode panels (e.g. loop gain, T, S).
+        step: Label -> transfer function for the step responses and the pole-zero map
+            (closed loops).
+        title: Figure title.
+        omega: Frequencies [rad/s]; default two decades beyond the poles and zeros.
+        t_final: Step-response horizon [s]; default python-control's choice per system.
+
+    Returns:
+        A 2 x 2 figure: |G| [dB], phase [deg], step responses, pole-zero map. In the
+        magnitude panel ``ax.lines[i]`` is ``bode``'s i-th entry.
+    """
+    import control as ct
+
+    w = _frequency_grid([*bode.values(), *step.values()]) if omega is None else np.asarray(omega, float)
+    fig, axes = _figure(2, 2, title, (11.0, 7.5))
+    (ax_mag, ax_step), (ax_phase, ax_pz) = axes
+    for i, (label, sys) in enumerate(bode.items()):
+        response = ct.frequency_response(sys, w)
+        mag, phase = np.abs(response.complex).ravel(), np.unwrap(np.angle(response.complex).ravel())
+        ax_mag.semilogx(w, 20.0 * np.log10(mag), color=f"C{i}", label=label)
+        ax_phase.semilogx(w, np.degrees(phase), color=f"C{i}", label=label)
+    ax_mag.set_ylabel("|G| [dB]")
+    ax_phase.set_ylabel("phase [deg]")
+    ax_phase.set_xlabel("omega [rad/s]")
+    for ax in (ax_mag, ax_phase):
+        ax.grid(alpha=0.3, which="both")
+    ax_mag.legend(loc="best", fontsize="small")
+    for i, (label, sys) in enumerate(step.items()):
+        response = ct.step_response(sys, T=t_final)
+        ax_step.plot(response.time, np.ravel(response.outputs), color=f"C{i}", label=label)
+    ax_step.axhline(1.0, **_TARGET)
+    ax_step.set_xlabel("t [s]")
+    ax_step.set_ylabel("step response")
+    ax_step.grid(alpha=0.3)
+    ax_step.legend(loc="best", fontsize="small")
+    _pole_zero(ax_pz, step)
+    return fig

@@ -306,7 +306,8 @@ def plot_design(
             (closed loops).
         title: Figure title.
         omega: Frequencies [rad/s]; default two decades beyond the poles and zeros.
-        t_final: Step-response horizon [s]; default python-control's choice per system.
+        t_final: Step-response horizon [s]; default 10 time constants of the slowest
+            pole of ``step``, 15 / min |Re p|.
 
     Returns:
         A 2 x 2 figure: |G| [dB], phase [deg], step responses, pole-zero map. In the
@@ -328,8 +329,13 @@ def plot_design(
     for ax in (ax_mag, ax_phase):
         ax.grid(alpha=0.3, which="both")
     ax_mag.legend(loc="best", fontsize="small")
+    if t_final is None:
+        slowest = min(
+            (abs(p.real) for sys in step.values() for p in ct.poles(sys) if abs(p.real) > 1e-12), default=1.0
+        )
+        t_final = 15.0 / slowest
     for i, (label, sys) in enumerate(step.items()):
-        response = ct.step_response(sys, T=t_final)
+        response = ct.step_response(sys, T=np.linspace(0.0, t_final, 2001))
         ax_step.plot(response.time, np.ravel(response.outputs), color=f"C{i}", label=label)
     ax_step.axhline(1.0, **_TARGET)
     ax_step.set_xlabel("t [s]")

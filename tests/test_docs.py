@@ -1,0 +1,44 @@
+"""The README's Python snippets run, in order, in one namespace, as a reader would paste them."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+_FENCE = re.compile(r"^```python[ \t]*\n(.*?)^```[ \t]*$", re.DOTALL | re.MULTILINE)
+
+
+def python_blocks(markdown: str) -> list[str]:
+    """Bodies of the fenced ```python blocks, in order (other languages are skipped)."""
+    return [m.group(1) for m in _FENCE.finditer(markdown)]
+
+
+def test_python_blocks_are_found_and_others_skipped():
+    text = (
+        "intro\n```bash\npip install x\n```\n"
+        "```python\nx = 1\n```\n"
+        "text ```python inline``` text\n"
+        "```python\ny = x + 1\nprint(y)\n```\n"
+        "```\nplain\n```\n"
+    )
+    assert python_blocks(text) == ["x = 1\n", "y = x + 1\nprint(y)\n"]
+    assert python_blocks("no code here\n```bash\nls\n```\n") == []
+
+
+def test_readme_python_snippets_run(tmp_path, monkeypatch):
+    blocks = python_blocks((ROOT / "README.md").read_text(encoding="utf-8"))
+    assert len(blocks) >= 1, "the README promises a runnable snippet on its first screen"
+    monkeypatch.chdir(tmp_path)  # anything a snippet writes lands here
+    monkeypatch.setenv("IBVS_YOULA_SMALL", "1")
+    namespace: dict = {"__name__": "__readme__"}
+    executed = 0
+    for i, block in enumerate(blocks):
+        try:
+            exec(compile(block, f"README.md python block {i + 1}", "exec"), namespace)
+        except Exception as exc:  # name the block in the failure
+            pytest.fail(f"README.md python block {i + 1} raised {type(exc).__name__}: {exc}\n{block}")
+        executed += 1
+    assert executed == len(blocks)

@@ -267,9 +267,15 @@ def test_reproduce_takes_settings_from_a_config(capsys, tmp_path, monkeypatch):
     assert seen["settings"] == iy.simulation.settings.SimulationSettings.paper(zeta=1.0)
     assert (seen["duration"], seen["resume"], seen["progress"]) == (4.0, False, True)
     assert "scenario_names" not in seen  # reproduce()'s own default
-    config.write_text('[scenario]\npreset = "paper-1"\n')
-    code, _, err = run(capsys, "reproduce", "--config", str(config))
-    assert code == 1 and "reads only [settings]" in one_error_line(err)
+    for text, key in (
+        ('[scenario]\npreset = "paper-1"\n', "scenario"),
+        ("[run]\nadaptive = false\n", "run.adaptive"),
+    ):
+        config.write_text(text)
+        code, _, err = run(capsys, "reproduce", "--config", str(config))
+        line = one_error_line(err)
+        assert code == 1 and line.startswith(f"ibvs-youla: error: {key}: received ")
+        assert "reproduce reads only [settings] and [run] duration" in line
 
 
 # ----------------------------------------------------------------------------- view

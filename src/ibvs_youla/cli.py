@@ -258,15 +258,21 @@ def _cmd_reproduce(args: argparse.Namespace, extra: list[str]) -> int:
     cfg = _config(args.config, settings_preset="paper")  # reproduce() runs the paper's settings
     settings, duration = None, args.duration
     if cfg is not None:
-        unused = [k for k in ("scenario", "controller", "adaptive") if getattr(cfg, k) is not None]
-        unused += [f"{k}_options" for k in ("camera", "arm") if getattr(cfg, f"{k}_options")]
-        if unused:
-            raise ConfigError(
-                f"{cfg.source}: {unused[0]}",
-                "a value",
-                "nothing: reproduce runs every controller variant of the named scenarios (--scenarios) "
-                "with the default arm and camera, and reads only [settings] and [run] duration",
-            )
+        given = {
+            "scenario": None if cfg.scenario is None else cfg.scenario.name,
+            "run.controller": cfg.controller,
+            "run.adaptive": cfg.adaptive,
+            "camera": dict(cfg.camera_options) or None,
+            "arm": dict(cfg.arm_options) or None,
+        }
+        for key, value in given.items():
+            if value is not None:
+                raise ConfigError(
+                    key,
+                    value,
+                    f"nothing in {cfg.source}: reproduce reads only [settings] and [run] duration; it runs "
+                    "every controller variant of --scenarios with the default arm and camera",
+                )
         settings = cfg.settings
         duration = duration if duration is not None else cfg.duration
     duration = 20.0 if duration is None else duration

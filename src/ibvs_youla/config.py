@@ -39,7 +39,8 @@ invalid value raises :class:`~ibvs_youla.exceptions.ConfigError` naming the key
 
 Without ``preset`` a ``[scenario]`` table must give ``q_start_deg``, ``q_target_deg``
 and ``markers_O``. Joint angles are in degrees, as in the paper's Table 1; everything
-else is SI.
+else is SI. The arm's joint limits are checked when the scenario is simulated
+(``Scenario.validate_for``), since that needs the arm model.
 """
 
 from __future__ import annotations
@@ -225,7 +226,7 @@ def _rename(err: IbvsYoulaError, table: str, aliases: Mapping[str, str] | None =
     if isinstance(err, InvalidArrayError):
         key = (aliases or {}).get(err.name, err.name)
         return ConfigError(f"{table}.{key}", err.received, err.expected)
-    return ConfigError(table, "these values", str(err))
+    return ConfigError(table, "its values", str(err))
 
 
 # ----------------------------------------------------------------------------- the configuration
@@ -235,7 +236,7 @@ class RunConfig:
 
     Attributes:
         scenario: The ``[scenario]`` table as a Scenario, or None without that table.
-        settings: ``[settings]`` over the paper's defaults.
+        settings: ``[settings]`` over its preset (``SimulationSettings()`` or ``.paper()``).
         controller: ``[run] controller`` (``"fb"``/``"ff+fb"``) or None.
         adaptive: ``[run] adaptive`` or None.
         duration: ``[run] duration`` [s] or None.

@@ -4,9 +4,9 @@ Every runtime controller of the library (inner loop, feedforward, outer loop) is
 diagonal MIMO system ``G(s) * I_m`` (Eq. (36), (45), (47), and ERRATA 9 for the outer
 loop), so one SISO realization ``(A, B, C, D)`` with an ``(n, m)`` state array serves
 all m channels. The filter runs inside the simulation loop (about 10^4 calls per
-simulated second across all filters), so :meth:`DiscreteFilter.step` uses
-preallocated arrays and a handful of numpy calls; nothing here rebuilds a transfer
-function.
+simulated second across all filters), so :meth:`DiscreteFilter.step` is one product
+of the stacked matrix [[A, B], [C, D]] with [x; u] into a preallocated buffer;
+nothing here rebuilds a transfer function.
 
 Discretization (:meth:`DiscreteFilter.from_tf`) uses ``scipy.signal.cont2discrete``:
 
@@ -76,8 +76,11 @@ class DiscreteFilter:
         self._B = B.reshape(n, 1).copy()  # column, broadcasts against u (m,)
         self._C = C.copy()
         self._D = float(D_arr[0])
-        self._x = np.zeros((n, m))
-        self._x_next = np.zeros((n, m))
+        # One step is one product [x[k+1]; y[k]] = [[A, B], [C, D]] [x[k]; u[k]] into the other
+        # of two (n + 1, m) buffers; self._x views the state rows of the current one.
+        self._M = np.block([[self._A, self._B], [self._C[None, :], np.array([[self._D]])]])
+        self._z, self._z_next = np.zeros((n + 1, m)), np.zeros((n + 1, m))
+        self._x, self._x_next = self._z[:n], self._z_next[:n]
         self._shape = (m,)
 
     @classmethod
@@ -146,7 +149,7 @@ class DiscreteFilter:
 
     def output(self, u: Any) -> np.ndarray:
         """Output y[k] = C x[k] + D u for input u, without advancing the state."""
-        return self._C @ self._x + self._D * np.asarray(u, dtype=float)
+        return self._C.dot(self._x) + self._D * np.asarray(u, dtype=float)
 
     def dc_gain(self) -> float:
         """Steady-state gain C (I - A)^-1 B + D (inf if the filter has a pole at z = 1)."""
@@ -168,12 +171,16 @@ class DiscreteFilter:
         u = np.asarray(u, dtype=float)
         if u.shape != self._shape:
             raise InvalidArrayError("u", f"an array of shape {u.shape}", f"shape {self._shape}")
-        y = self._C @ self._x
-        y += self._D * u
-        np.matmul(self._A, self._x, out=self._x_next)
-        self._x_next += self._B * u
+        return self._step(u)
+
+    def _step(self, u: np.ndarray) -> np.ndarray:
+        """`step` for a float (m,) array, unchecked (the simulator's joint and camera loops)."""
+        z, z_next = self._z, self._z_next
+        z[-1] = u
+        self._M.dot(z, out=z_next)  # [A x + B u; C x + D u]
+        self._z, self._z_next = z_next, z
         self._x, self._x_next = self._x_next, self._x
-        return y
+        return z_next[-1].copy()
 
     # ------------------------------------------------------------------ resets
     def reset(self, state: Any = None) -> None:

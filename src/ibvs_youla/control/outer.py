@@ -38,6 +38,7 @@ import control as ct
 import numpy as np
 from scipy.optimize import brentq
 
+from .._linalg import svd
 from .._validation import as_array, non_negative, one_of, positive
 from ..exceptions import InvalidParameterError, SingularConfigurationError
 from .discrete import DiscreteFilter
@@ -46,6 +47,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from .literal import LiteralMimo
 
 __all__ = ["OuterLoopController", "OuterLoopDesign", "SingularValuePolicy", "SvdGains"]
+
+_EPS = float(np.finfo(float).eps)
 
 
 class SvdGains(NamedTuple):
@@ -126,10 +129,32 @@ class SingularValuePolicy:
 
     def decompose(self, J: Any) -> SvdGains:
         """Economy SVD of J (m, n) and the regularized pseudo-inverse."""
-        J = as_array(J, "J", (None, None))
-        U, s, Vt = np.linalg.svd(J, full_matrices=False)
-        g = self.gains(s, max(J.shape))
-        return SvdGains(U, s, g, Vt, (Vt.T * g) @ U.T)
+        return self._decompose(as_array(J, "J", (None, None)))
+
+    def _decompose(self, J: np.ndarray) -> SvdGains:
+        """`decompose` of a finite float (m, n) array, unchecked."""
+        U, s, gains, Vt = self._svd_gains(J)
+        return SvdGains(U, s, gains, Vt, (Vt.T * gains).dot(U.T))
+
+    def _svd_gains(self, J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(U, sigma, gains, Vt) of a finite float (m, n) array, unchecked (every adaptive frame).
+
+        LAPACK ``dgesdd`` called directly (:func:`ibvs_youla._linalg.svd`) and the gains of
+        :meth:`gains` in scalar arithmetic (same operations, same floats).
+        """
+        U, s, Vt = svd(J)
+        sigma = s.tolist()
+        smax = sigma[0] if sigma else 0.0
+        if smax <= 0.0:
+            self.gains(s)  # raises SingularConfigurationError
+        zero = max(J.shape) * _EPS * smax  # numerical rank tolerance
+        if self.kind == "damped":
+            lam2 = (self.threshold * smax) ** 2
+            g = [x / (x * x + lam2) if x > zero else 0.0 for x in sigma]
+        else:
+            cut = self.threshold * smax
+            g = [1.0 / x if x > zero and x > cut else 0.0 for x in sigma]
+        return U, s, np.array(g), Vt
 
     def pseudo_inverse(self, J: Any) -> np.ndarray:
         """Regularized pseudo-inverse V diag(g(sigma)) U^T of J, shape (n, m)."""
@@ -296,6 +321,7 @@ class OuterLoopController:
         self._n = n_joints
         self._fixed: SvdGains | None = None
         self._last: SvdGains | None = None
+        self._last_raw: tuple[np.ndarray, ...] | None = None  # (U, sigma, gains, Vt) of `_update`
         self._q_fb = np.zeros(n_joints)
         if J is not None:
             self.set_jacobian(J)
@@ -314,12 +340,16 @@ class OuterLoopController:
     @property
     def last_decomposition(self) -> SvdGains | None:
         """SVD and gains used by the last update (or the fixed one), for logging."""
+        if self._last_raw is not None:
+            U, s, g, Vt = self._last_raw
+            self._last, self._last_raw = SvdGains(U, s, g, Vt, (Vt.T * g).dot(U.T)), None
         return self._last
 
     def set_jacobian(self, J: Any) -> None:
         """Fix the Jacobian (m, n) used when :meth:`update` gets no J."""
         J = as_array(J, "J", (None, self._n))
         self._fixed = self._last = self._policy.decompose(J)
+        self._last_raw = None
 
     def update(self, e_image: Any, J: Any = None) -> np.ndarray:
         """One camera sample: q_fb[k] = K(z)[P e][k].
@@ -337,10 +367,21 @@ class OuterLoopController:
             dec = self._fixed
         else:
             dec = self._policy.decompose(as_array(J, "J", (None, self._n)))
-            self._last = dec
+            self._last, self._last_raw = dec, None
         e = as_array(e_image, "e_image", (dec.pinv.shape[1],))
         self._q_fb = self._filter.step(dec.pinv @ e)
         return self._q_fb.copy()
+
+    def _update(self, e_image: np.ndarray, J: np.ndarray) -> np.ndarray:
+        """Adaptive `update` on finite float arrays e (m,) and J (m, n), unchecked.
+
+        P e is evaluated as V (g * (U^T e)) (equal to ``pinv @ e`` up to rounding); the
+        pseudo-inverse itself is formed only if :attr:`last_decomposition` is read.
+        Returns the controller's own q_fb array (not a copy): do not modify it.
+        """
+        U, _, g, Vt = self._last_raw = self._policy._svd_gains(J)
+        self._q_fb = self._filter._step(Vt.T.dot(g * U.T.dot(e_image)))
+        return self._q_fb
 
     def reset(self, q_fb0: Any = None) -> None:
         """Rest at q_fb = q_fb0 (zeros by default): the output stays q_fb0 while P e = 0."""

@@ -4,6 +4,8 @@ Sec. 4.4-4.5 (Eq. 21-25): P_C = T_C_O P_O, p_image = M(P_C) (Eq. 11), so p_image
 (Eq. 24). Sec. 6.3: the 9x6 Jacobian J = L(P_C) J_C(q) (Eq. 51, ERRATA 12) and the estimate
 q~ = F^-1(p_image) (Eq. 62) through stereo P3P (Sec. 3, Appendix C) and the arm's inverse kinematics.
 These methods run every camera frame: arguments are not re-validated, constants are precomputed.
+The simulator calls the underscored twins (`_jacobian`, `_estimate_q`), which also skip the arm's
+argument checks and share its kinematics passes; tests pin them to the plain methods.
 """
 
 from __future__ import annotations
@@ -12,9 +14,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._validation import as_array
 from ..exceptions import InvalidParameterError
 from ..model.camera import StereoCamera, Visibility
-from .stereo_pose import _kabsch, check_marker_geometry
+from .stereo_pose import _kabsch_centred, check_marker_geometry
 
 if TYPE_CHECKING:
     from ..model.arm import Arm
@@ -48,6 +51,8 @@ class EyeInHand:
         self.markers_O = check_marker_geometry(markers_O, "markers_O").copy()
         self.markers_O.flags.writeable = False
         self.virtual_points = bool(virtual_points)
+        self._markers_mean = np.add.reduce(self.markers_O, axis=0) / self.markers_O.shape[0]  # [m]
+        self._markers_centred = self.markers_O - self._markers_mean  # [m], Eq. (C11) for fixed markers
 
     @property
     def n_features(self) -> int:
@@ -57,7 +62,7 @@ class EyeInHand:
     def points_in_camera_at_pose(self, T_O_C: np.ndarray) -> np.ndarray:
         """Markers in the camera frame, P_C = T_C_O P_O (Eq. 21-22), (n, 3) [m]."""
         R = T_O_C[:3, :3]
-        return (self.markers_O - T_O_C[:3, 3]) @ R  # rows R^T (P_O - t)
+        return (self.markers_O - T_O_C[:3, 3]).dot(R)  # rows R^T (P_O - t)
 
     def points_in_camera(self, q: np.ndarray) -> np.ndarray:
         """Markers in the camera frame at joint angles q (6,) [rad], (n, 3) [m]."""
@@ -69,7 +74,7 @@ class EyeInHand:
         Raises:
             PointBehindCameraError: a marker has Z_C <= 0 (only |Z_C| ~ 0 with virtual points).
         """
-        return self.camera._project(self.points_in_camera_at_pose(T_O_C), self.virtual_points).reshape(-1)
+        return self.camera._project_flat(self.points_in_camera_at_pose(T_O_C), self.virtual_points)
 
     def features(self, q: np.ndarray) -> np.ndarray:
         """Eye-in-hand map F of Eq. (24): stereo features (3n,) [m] at joint angles q (6,) [rad]."""
@@ -84,6 +89,11 @@ class EyeInHand:
         P_C = self.points_in_camera(q)
         return self.camera._interaction(P_C, self.virtual_points) @ self.arm.camera_jacobian(q)
 
+    def _jacobian(self, q: np.ndarray) -> np.ndarray:
+        """`jacobian` from one kinematics pass of the arm (``Arm._camera_pose_and_jacobian``), unchecked."""
+        T_O_C, J_C = self.arm._camera_pose_and_jacobian(q)
+        return self.camera._interaction(self.points_in_camera_at_pose(T_O_C), self.virtual_points).dot(J_C)
+
     def visibility(self, q: np.ndarray) -> Visibility:
         """Depth sign, field of view and depth range of every marker at q (ERRATA 13)."""
         return self.camera.visibility(self.points_in_camera(q))
@@ -96,15 +106,24 @@ class EyeInHand:
         Raises:
             InvalidDisparityError: a marker's disparity is ~0, or negative without virtual points.
         """
-        p = np.asarray(p_image, dtype=float).reshape(-1, 3)
-        return _kabsch(self.camera._triangulate(p, self.virtual_points), self.markers_O)
+        p = np.asarray(p_image, dtype=float)
+        p = p.reshape(p.size // 3, 3)
+        return _kabsch_centred(self.camera._triangulate(p, self.virtual_points), self._markers_centred,
+                               self._markers_mean)
 
     def estimate_q(self, p_image: np.ndarray, q_near: np.ndarray) -> np.ndarray:
         """Joint angles q~ = F^-1(p_image) of Eq. (62) (6,) [rad]: the IK branch nearest to q_near.
 
         Raises:
+            InvalidArrayError: ``q_near`` is not a finite (6,) array.
             InvalidDisparityError: see `estimate_camera_pose`.
             UnreachablePoseError: no IK branch within the joint limits reaches the estimated pose.
         """
-        return self.arm.ik(self.estimate_camera_pose(p_image), q_near=q_near)[0]
+        return self._estimate_q(p_image, as_array(q_near, "q_near", (6,)))
+
+    def _estimate_q(self, p_image: np.ndarray, q_near: np.ndarray) -> np.ndarray:
+        """`estimate_q` with ``q_near`` a finite float (6,) array (unchecked): the arm's nearest-branch IK."""
+        T_O_C = self.estimate_camera_pose(p_image)
+        nearest = getattr(self.arm, "_ik_nearest", None)
+        return self.arm.ik(T_O_C, q_near=q_near)[0] if nearest is None else nearest(T_O_C, q_near)
 

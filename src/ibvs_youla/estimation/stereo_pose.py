@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .._geometry import make_pose
+from .._linalg import det3_sign, svd
 from .._validation import as_array
 from ..exceptions import DegenerateMarkersError, InvalidArrayError
 
@@ -32,6 +33,9 @@ __all__ = [
 
 COINCIDENT_TOL = 1e-12  # points coincide when their spread s1 <= this * max(|P_i|, 1 m)
 COLLINEAR_TOL = 1e-6  # points are collinear when s2 <= this * s1 (s: singular values of the centred set)
+_FLIP_Z = np.array([1.0, 1.0, -1.0])
+_EYE4 = np.eye(4)
+_ONES: dict[int, np.ndarray] = {}  # n -> np.ones(n), read-only use
 
 
 def check_marker_geometry(P: object, name: str = "P", weights: np.ndarray | None = None) -> np.ndarray:
@@ -69,16 +73,40 @@ def check_marker_geometry(P: object, name: str = "P", weights: np.ndarray | None
 def _kabsch(P_from: np.ndarray, P_to: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
     """Unvalidated core of `rigid_transform_from_points` (hot path); w sums to 1 or is None."""
     if w is None:
-        c_from, c_to = P_from.mean(axis=0), P_to.mean(axis=0)  # Eq. (C10)-(C11)
-        H = (P_from - c_from).T @ (P_to - c_to)  # Eq. (C12)-(C14): sum_i P'_from,i P'_to,i^T
-    else:
-        c_from, c_to = w @ P_from, w @ P_to
-        H = (P_from - c_from).T @ ((P_to - c_to) * w[:, None])
-    U, _, Vt = np.linalg.svd(H)  # Eq. (C15): H = U S V^T
-    D = np.eye(3)
-    D[2, 2] = np.sign(np.linalg.det(Vt.T @ U.T))  # reflection fix (det is +-1): det R = +1
-    R = Vt.T @ D @ U.T  # Eq. (C16) with the det correction
-    return make_pose(R, c_to - R @ c_from)  # Eq. (C17)
+        n = P_from.shape[0]
+        c_to = np.add.reduce(P_to, axis=0) / n  # Eq. (C11), the mean
+        return _kabsch_centred(P_from, P_to - c_to, c_to)
+    c_from, c_to = w @ P_from, w @ P_to
+    H = (P_from - c_from).T @ ((P_to - c_to) * w[:, None])
+    return _fit(H, c_from, c_to)
+
+
+def _kabsch_centred(P_from: np.ndarray, Q_to: np.ndarray, c_to: np.ndarray) -> np.ndarray:
+    """`_kabsch` (unweighted) with the target points given centred, Q_to = P_to - c_to (fixed markers).
+
+    Since sum_i Q_to,i = 0, H = sum_i (P_from,i - c_from) Q_to,i^T = P_from^T Q_to: the source
+    points need no centring (the rounding of sum_i Q_to,i ~ eps |P_to| is what remains).
+    """
+    n = P_from.shape[0]
+    ones = _ONES.get(n)
+    if ones is None:
+        ones = _ONES[n] = np.ones(n)
+    c_from = ones.dot(P_from) / n  # Eq. (C10), the mean (a product: cheaper than a reduction)
+    H = P_from.T.dot(Q_to)  # Eq. (C12)-(C14): sum_i P'_from,i P'_to,i^T
+    return _fit(H, c_from, c_to)
+
+
+def _fit(H: np.ndarray, c_from: np.ndarray, c_to: np.ndarray) -> np.ndarray:
+    """Eq. (C15)-(C17) from the cross-covariance H and the centroids."""
+    U, _, Vt = svd(H)  # Eq. (C15): H = U S V^T
+    V = Vt.T
+    if det3_sign(Vt.tolist(), U.tolist()) < 0.0:  # reflection fix (det V U^T = -1): det R = +1
+        V = V * _FLIP_Z
+    R = V.dot(U.T)  # Eq. (C16) with the det correction, V diag(1, 1, det(V U^T)) U^T
+    T = _EYE4.copy()
+    T[:3, :3] = R
+    T[:3, 3] = c_to - R.dot(c_from)  # Eq. (C17)
+    return T
 
 
 def rigid_transform_from_points(P_from: object, P_to: object, weights: object = None) -> np.ndarray:

@@ -13,7 +13,9 @@ they ignore ``model.damping``, which is therefore left at zero and the damping t
 Hot-path methods (poses, Jacobians, dynamics) validate their inputs cheaply: a float64
 array of the right shape whose entries are finite passes straight through; anything
 else goes through :func:`ibvs_youla._validation.as_array` and raises
-:class:`~ibvs_youla.exceptions.InvalidArrayError` if it is not valid.
+:class:`~ibvs_youla.exceptions.InvalidArrayError` if it is not valid. The simulator's
+inner loop calls the underscored twins (``_camera_pose``, ``_forward_dynamics``, ...),
+which skip even that check: their callers own arrays that are valid by construction.
 """
 
 from __future__ import annotations
@@ -29,7 +31,13 @@ import pinocchio as pin
 from .._validation import as_array, as_pose, non_negative, one_of, positive
 from ..exceptions import InvalidArrayError, ModelLoadError, UnreachablePoseError
 from ._resources import check_chain, frame_id, load_urdf_model, urdf_path
-from .ik import SphericalWristParameters, closed_form_branches, numerical_branches, select_branches
+from .ik import (
+    SphericalWristParameters,
+    closed_form_branches,
+    nearest_branch,
+    numerical_branches,
+    select_branches,
+)
 
 __all__ = ["ActuatorParameters", "Arm"]
 
@@ -146,6 +154,7 @@ class Arm:
         rng = np.random.default_rng(0)
         lo, hi = np.maximum(self.q_min, -math.pi), np.minimum(self.q_max, math.pi)
         self._ik_seeds = lo + (hi - lo) * rng.random((_IK_SEEDS, _N))
+        self._q_min_list, self._q_max_list = self.q_min.tolist(), self.q_max.tolist()
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -268,6 +277,27 @@ class Arm:
         """
         return pin.computeFrameJacobian(self.model, self._data, self._vec(q, "q"), self._camera_id, pin.LOCAL)
 
+    # ------------------------------------------------------------------ unchecked hot path
+    def _camera_pose(self, q: np.ndarray) -> np.ndarray:
+        """`camera_pose` without the argument check (q a finite float64 (6,) array)."""
+        pin.forwardKinematics(self.model, self._data, q)
+        return pin.updateFramePlacement(self.model, self._data, self._camera_id).homogeneous
+
+    def _camera_pose_and_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(`camera_pose`, `camera_jacobian`) at q from one kinematics pass, unchecked."""
+        model, data = self.model, self._data
+        pin.computeJointJacobians(model, data, q)
+        J_C = pin.getFrameJacobian(model, data, self._camera_id, pin.LOCAL)
+        return pin.updateFramePlacement(model, data, self._camera_id).homogeneous, J_C
+
+    def _forward_dynamics(self, q: np.ndarray, dq: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """`forward_dynamics` without the argument checks (RK4 stages of the plant)."""
+        return pin.aba(self.model, self._data, q, dq, tau - self.damping * dq)
+
+    def _inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+        """`inverse_dynamics` without the argument checks: M(q) ddq + h(q, dq) in one RNEA pass."""
+        return pin.rnea(self.model, self._data, q, dq, ddq) + self.damping * dq
+
     # ------------------------------------------------------------------ dynamics
     def mass_matrix(self, q: Any) -> np.ndarray:
         """M(q) = D(q) + J (6, 6), Eq. (31): CRBA with the armature, both triangles filled."""
@@ -341,7 +371,7 @@ class Arm:
             seeds = self._ik_seeds if q_near is None else np.vstack([ref, self._ik_seeds])
             raw = numerical_branches(self.model, self._data, self._camera_id, T_O_C, seeds)
         solutions = select_branches(raw, self.q_min, self.q_max, ref)
-        solutions = solutions[[np.abs(self.camera_pose(q) - T_O_C).max() <= _IK_TOL for q in solutions]]
+        solutions = solutions[[np.abs(self._camera_pose(q) - T_O_C).max() <= _IK_TOL for q in solutions]]
         if solutions.shape[0] == 0:
             where = np.round(T_O_C[:3, 3], 4).tolist()
             why = (
@@ -352,3 +382,23 @@ class Arm:
             )
             raise UnreachablePoseError(T_O_C, f"{self.name}: camera pose at {where} m: {why}")
         return solutions
+
+    def _ik_nearest(self, T_O_C: np.ndarray, q_near: np.ndarray) -> np.ndarray:
+        """``ik(T_O_C, q_near)[0]``, computed without building every branch (Eq. (62) hot path).
+
+        Unchecked: ``T_O_C`` a rigid (4, 4) float pose (e.g. from stereo P3P, orthonormal to
+        rounding, so the projection onto SO(3) of :meth:`ik` is skipped) and ``q_near`` a finite
+        (6,) array. With the closed form, the nearest in-limit branch
+        (:func:`~ibvs_youla.model.ik.nearest_branch`) is returned if it passes the pose check of
+        :meth:`ik`; any other case (no closed form, nearest branch rejected, no branch) is
+        delegated to :meth:`ik`, which also raises its errors.
+        """
+        if self.ik_parameters is not None:
+            T_O_E = T_O_C.dot(self._T_C_E)
+            q = nearest_branch(self.ik_parameters, T_O_E, self._q_min_list, self._q_max_list, q_near.tolist())
+            if q is not None:
+                q = np.array(q)
+                d = (self._camera_pose(q) - T_O_C).ravel()
+                if d.dot(d) <= _IK_TOL**2 or np.abs(d).max() <= _IK_TOL:  # the first implies the second
+                    return q
+        return self.ik(T_O_C, q_near=q_near)[0]

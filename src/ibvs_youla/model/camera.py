@@ -11,6 +11,7 @@ covers [i, i + 1). The stereo frame {C} sits mid-baseline with the left lens at 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -157,9 +158,9 @@ class _Sensor:
         F = self.focal_length
         return 2 * np.arctan(0.5 * self.sensor_width / F), 2 * np.arctan(0.5 * self.sensor_height / F)
 
-    @property
+    @cached_property
     def _lens_x(self) -> tuple[float, ...]:
-        """x_C of each lens centre [m]; features are one u per lens, then the shared v."""
+        """x_C of each lens centre [m]; features are one u per lens, then the shared v (cached)."""
         return (0.0,)
 
     def intrinsic_matrix(self) -> np.ndarray:
@@ -180,14 +181,20 @@ class _Sensor:
         return self._project(_points(P_C, "P_C"), allow_behind)
 
     def _project(self, P_C: np.ndarray, allow_behind: bool) -> np.ndarray:
-        # Per-point scalar loops here and below: ~5x faster than array code for 3 markers (hot path).
-        F, lens_x, rows = self.focal_length, self._lens_x, []
+        return self._project_flat(P_C, allow_behind).reshape(P_C.shape[0], len(self._lens_x) + 1)
+
+    def _project_flat(self, P_C: np.ndarray, allow_behind: bool) -> np.ndarray:
+        """`_project` as one point-major vector ((k + 1) n,), e.g. the stereo features of Eq. (24)."""
+        # Per-point scalar loops here and below: ~5x faster than array code for 3 markers (hot path);
+        # flat lists convert to arrays faster than nested ones.
+        F, lens_x, out = self.focal_length, self._lens_x, []
         for X, Y, Z in P_C.tolist():
             if (abs(Z) if allow_behind else Z) < MIN_ABS_DEPTH:
                 _check_depth(P_C[:, 2], allow_behind)
             Fiz = F / Z
-            rows.append([(X - x0) * Fiz for x0 in lens_x] + [Y * Fiz])
-        return np.array(rows).reshape(-1, len(lens_x) + 1)
+            out.extend([(X - x0) * Fiz for x0 in lens_x])
+            out.append(Y * Fiz)
+        return np.array(out, dtype=float)
 
     def interaction_matrix(self, P_C: object, allow_behind: bool = False) -> np.ndarray:
         """d(features)/d[v; w] ((k+1) n, 6), point-major, for static points seen from a moving camera.
@@ -201,7 +208,7 @@ class _Sensor:
         return self._interaction(_points(P_C, "P_C"), allow_behind)
 
     def _interaction(self, P_C: np.ndarray, allow_behind: bool) -> np.ndarray:
-        F, lens_x, rows = self.focal_length, self._lens_x, []
+        F, lens_x, out = self.focal_length, self._lens_x, []
         for X, Y, Z in P_C.tolist():
             if (abs(Z) if allow_behind else Z) < MIN_ABS_DEPTH:
                 _check_depth(P_C[:, 2], allow_behind)
@@ -209,10 +216,10 @@ class _Sensor:
             Fiz = F * iz
             for x0 in lens_x:
                 u = (X - x0) * Fiz
-                rows.append((-Fiz, 0.0, u * iz, u * Y * iz, -F - u * X * iz, Fiz * Y))
+                out += (-Fiz, 0.0, u * iz, u * Y * iz, -F - u * X * iz, Fiz * Y)
             v = Y * Fiz
-            rows.append((0.0, -Fiz, v * iz, F + v * Y * iz, -v * X * iz, -Fiz * X))
-        return np.array(rows).reshape(-1, 6)
+            out += (0.0, -Fiz, v * iz, F + v * Y * iz, -v * X * iz, -Fiz * X)
+        return np.array(out, dtype=float).reshape(P_C.shape[0] * (len(lens_x) + 1), 6)
 
     def visibility(self, P_C: object) -> Visibility:
         """Visibility of points (n, 3) [m]: in front, inside every lens's sensor extent, in depth_range."""
@@ -229,6 +236,25 @@ class _Sensor:
         for a in flags:
             a.flags.writeable = False
         return Visibility(*flags)
+
+    def _all_visible(self, P_C: np.ndarray) -> bool:
+        """``visibility(P_C).all_visible`` for valid points (n, 3), in scalar arithmetic (hot path)."""
+        F, pitch, skew = self.focal_length, self.pixel_pitch, self.skew
+        u0, v0 = self.principal_point
+        u_max, v_max = self.sensor_width / pitch, self.sensor_height / pitch
+        z_min, z_max = self.depth_range
+        lens_x = self._lens_x
+        for X, Y, Z in P_C.tolist():
+            if not (Z >= MIN_ABS_DEPTH and z_min <= Z <= z_max):
+                return False
+            Fiz = F / Z
+            v = Y * Fiz
+            if not 0 <= v / pitch + v0 <= v_max:
+                return False
+            for x0 in lens_x:
+                if not 0 <= (X - x0) * Fiz / pitch + skew * v / F + u0 <= u_max:
+                    return False
+        return True
 
     def to_pixels(self, p: object) -> np.ndarray:
         """Feature rows [m on the sensor] -> [px] through K of Eq. (6) (the stereo lenses share K)."""
@@ -265,7 +291,7 @@ class StereoCamera(_Sensor):
         super().__post_init__()
         object.__setattr__(self, "baseline", positive(self.baseline, "baseline", unit="[m]"))
 
-    @property
+    @cached_property
     def _lens_x(self) -> tuple[float, ...]:
         return (0.5 * self.baseline, -0.5 * self.baseline)
 
@@ -297,15 +323,15 @@ class StereoCamera(_Sensor):
         return self._triangulate(_points(p, "p"), allow_behind)
 
     def _triangulate(self, p: np.ndarray, allow_behind: bool) -> np.ndarray:
-        F, b, rows = self.focal_length, self.baseline, []
+        F, b, out = self.focal_length, self.baseline, []
         d_min = F * b / MAX_ABS_DEPTH  # [m]
         for u_l, u_r, v in p.tolist():
             d = u_r - u_l  # disparity [m]
             if (abs(d) if allow_behind else d) < d_min:
                 _raise_disparity(p[:, 1] - p[:, 0], d_min, allow_behind)
             s = b / d
-            rows.append((0.5 * s * (u_l + u_r), s * v, F * s))  # Eq. (C6)-(C8)
-        return np.array(rows).reshape(-1, 3)
+            out += (0.5 * s * (u_l + u_r), s * v, F * s)  # Eq. (C6)-(C8)
+        return np.array(out, dtype=float).reshape(p.shape[0], 3)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -40,6 +40,7 @@ from ..exceptions import InvalidParameterError
 __all__ = [
     "SphericalWristParameters",
     "closed_form_branches",
+    "nearest_branch",
     "numerical_branches",
     "select_branches",
 ]
@@ -141,18 +142,74 @@ class SphericalWristParameters:
 
 def _wrist(R36: np.ndarray, q4_ref: float) -> list[tuple[float, float, float]]:
     """(q4, q5, q6) with Rz(q4) Ry(-q5) Rz(q6) = R36: two flips, or one choice when singular."""
-    m = math.hypot(R36[0, 2], R36[1, 2])  # |sin q5|
+    return _wrist_angles(
+        float(R36[0, 0]), float(R36[0, 2]), float(R36[1, 0]), float(R36[1, 2]),
+        float(R36[2, 0]), float(R36[2, 1]), float(R36[2, 2]), q4_ref,
+    )
+
+
+def _wrist_angles(
+    r00: float, r02: float, r10: float, r12: float, r20: float, r21: float, r22: float, q4_ref: float
+) -> list[tuple[float, float, float]]:
+    """`_wrist` on the seven entries of R36 it reads (scalars, hot path)."""
+    m = math.hypot(r02, r12)  # |sin q5|
     if m < _SINGULAR:
-        if R36[2, 2] > 0.0:  # q5 = 0: R36 = Rz(q4 + q6)
-            return [(q4_ref, 0.0, math.atan2(R36[1, 0], R36[0, 0]) - q4_ref)]
+        if r22 > 0.0:  # q5 = 0: R36 = Rz(q4 + q6)
+            return [(q4_ref, 0.0, math.atan2(r10, r00) - q4_ref)]
         # q5 = pi: R36 = Rz(q4 - q6) diag(-1, 1, -1)
-        return [(q4_ref, math.pi, q4_ref - math.atan2(-R36[1, 0], -R36[0, 0]))]
+        return [(q4_ref, math.pi, q4_ref - math.atan2(-r10, -r00))]
+    return [
+        (math.atan2(-r12, -r02), math.atan2(m, r22), math.atan2(-r21, r20)),
+        (math.atan2(r12, r02), math.atan2(-m, r22), math.atan2(r21, -r20)),
+    ]
+
+
+def _wrap1(x: float) -> float:
+    """Map one angle to (-pi, pi], with the arithmetic of :func:`_wrap` (same float result)."""
+    return math.pi - (math.pi - x) % _TWO_PI
+
+
+def _shoulders(
+    p: SphericalWristParameters, T_O_E: list[list[float]], q1_ref: float
+) -> tuple[tuple[float, float, float], tuple[float, float]]:
+    """Wrist centre (x, y, z) [m] and the two shoulder angles q1 (front, back) of a flange pose."""
+    (_, _, r02, px), (_, _, r12, py), (_, _, r22, pz) = T_O_E[0], T_O_E[1], T_O_E[2]
+    x, y, z = px - p.d6 * r02, py - p.d6 * r12, pz - p.d6 * r22  # wrist centre [m]
+    if math.hypot(x, y) < _SINGULAR:
+        return (x, y, z), (q1_ref, q1_ref + math.pi)
+    front = math.atan2(y, x)
+    return (x, y, z), (front, front - math.pi if front > 0.0 else front + math.pi)
+
+
+def _elbows(
+    p: SphericalWristParameters, T_O_E: list[list[float]], centre: tuple[float, float, float], q1: float
+) -> list[tuple[float, float, tuple[float, ...]]]:
+    """(q2, q3, R36) of each elbow solution for shoulder angle q1 (none if out of reach).
+
+    R36 = R_O_3^T R_O_E as the seven entries `_wrist_angles` reads (r00, r02, r10, r12, r20,
+    r21, r22). Angles unwrapped.
+    """
+    (r00, r01, r02, _), (r10, r11, r12, _), (r20, r21, r22, _) = T_O_E[0], T_O_E[1], T_O_E[2]
+    x, y, z = centre
+    L = math.hypot(p.a3, p.d4)
+    beta = math.atan2(p.d4, p.a3)
+    c1, s1 = math.cos(q1), math.sin(q1)
+    r, s = x * c1 + y * s1 - p.a1, z - p.d1  # joint 2 -> wrist centre, radial and vertical [m]
+    cos_g = (r * r + s * s - p.a2**2 - L * L) / (2.0 * p.a2 * L)
+    if abs(cos_g) > 1.0 + 1e-12:
+        return []
+    gamma0 = math.acos(min(1.0, max(-1.0, cos_g)))
+    # R_O_E rows projected for R_O_3 = [[sp c1, s1, cp c1], [sp s1, -c1, cp s1], [cp, 0, -sp]]
+    a0, a1, a2 = c1 * r00 + s1 * r10, c1 * r01 + s1 * r11, c1 * r02 + s1 * r12
+    b0, b2 = s1 * r00 - c1 * r10, s1 * r02 - c1 * r12
     out = []
-    for sign in (1.0, -1.0):
-        q5 = math.atan2(sign * m, R36[2, 2])
-        q4 = math.atan2(-sign * R36[1, 2], -sign * R36[0, 2])
-        q6 = math.atan2(-sign * R36[2, 1], sign * R36[2, 0])
-        out.append((q4, q5, q6))
+    for gamma in (gamma0, -gamma0) if gamma0 > 0.0 else (gamma0,):
+        q3 = gamma - beta
+        q2 = math.atan2(r, s) - math.atan2(L * math.sin(gamma), p.a2 + L * math.cos(gamma))
+        sp, cp = math.sin(q2 + q3), math.cos(q2 + q3)
+        R36 = (sp * a0 + cp * r20, sp * a2 + cp * r22, b0, b2,
+               cp * a0 - sp * r20, cp * a1 - sp * r21, cp * a2 - sp * r22)
+        out.append((q2, q3, R36))
     return out
 
 
@@ -171,32 +228,94 @@ def closed_form_branches(
         (-pi, pi] except where a singular choice copies q_ref. Empty (0, 6) when the wrist
         centre is out of reach.
     """
-    p = params
-    R = T_O_E[:3, :3]
-    x, y, z = T_O_E[:3, 3] - p.d6 * R[:, 2]  # wrist centre [m]
-    L = math.hypot(p.a3, p.d4)
-    beta = math.atan2(p.d4, p.a3)
-    if math.hypot(x, y) < _SINGULAR:
-        shoulders = (float(q_ref[0]), float(q_ref[0]) + math.pi)
-    else:
-        front = math.atan2(y, x)
-        shoulders = (front, front - math.pi if front > 0.0 else front + math.pi)
-    rows = []
-    for q1 in shoulders:
-        c1, s1 = math.cos(q1), math.sin(q1)
-        r, s = x * c1 + y * s1 - p.a1, z - p.d1  # joint 2 -> wrist centre, radial and vertical [m]
-        cos_g = (r * r + s * s - p.a2**2 - L * L) / (2.0 * p.a2 * L)
-        if abs(cos_g) > 1.0 + 1e-12:
+    q4_ref = float(q_ref[3])
+    M = np.asarray(T_O_E, dtype=float).tolist()
+    centre, shoulders = _shoulders(params, M, float(q_ref[0]))
+    rows = [
+        [_wrap1(v) for v in (q1, q2, q3, *wrist)]
+        for q1 in shoulders
+        for q2, q3, R36 in _elbows(params, M, centre, q1)
+        for wrist in _wrist_angles(*R36, q4_ref)
+    ]
+    return np.array(rows, dtype=float).reshape(-1, 6)
+
+
+def nearest_branch(
+    params: SphericalWristParameters,
+    T_O_E: np.ndarray,
+    q_min: list[float],
+    q_max: list[float],
+    q_near: list[float],
+    *,
+    tol: float = 1e-9,
+) -> list[float] | None:
+    """First row of ``select_branches(closed_form_branches(...), q_min, q_max, q_near)``, or None.
+
+    The same rules in scalar arithmetic, without building every branch (the configuration
+    estimate of Eq. (62) runs at every camera frame): each joint is moved to its
+    2*pi-equivalent within limits nearest ``q_near``, branches with a joint outside the
+    limits are dropped, and the nearest in Euclidean distance wins, the first in branch
+    order on a tie. The shoulder nearer ``q_near`` is visited first, and a branch is given
+    up (before its elbow and wrist are solved) as soon as its partial distance exceeds the
+    best one's. Unvalidated: ``T_O_E`` a rigid (4, 4) pose, the rest lists of 6 floats [rad].
+    """
+    bounds = [
+        (lo, hi, lo - tol, hi + tol, lo if qn < lo else hi if qn > hi else qn, qn)
+        for lo, hi, qn in zip(q_min, q_max, q_near, strict=True)
+    ]
+    M = T_O_E.tolist()
+    centre, shoulders = _shoulders(params, M, q_near[0])
+    order = (0, 1) if abs(_wrap1(shoulders[0] - q_near[0])) <= 0.5 * math.pi else (1, 0)
+    best, best_key = None, (math.inf, 0, 0, 0)
+    q4_ref = q_near[3]
+    for i in order:  # the shoulder nearer q_near first: the other one is then given up early
+        q_1 = _nearest_equivalents((shoulders[i],), bounds[:1], 0.0, best_key[0])
+        if q_1 is None:
             continue
-        gamma0 = math.acos(min(1.0, max(-1.0, cos_g)))
-        for gamma in (gamma0, -gamma0) if gamma0 > 0.0 else (gamma0,):
-            q3 = gamma - beta
-            q2 = math.atan2(r, s) - math.atan2(L * math.sin(gamma), p.a2 + L * math.cos(gamma))
-            sp, cp = math.sin(q2 + q3), math.cos(q2 + q3)
-            R_O_3 = np.array([[sp * c1, s1, cp * c1], [sp * s1, -c1, cp * s1], [cp, 0.0, -sp]])
-            for q4, q5, q6 in _wrist(R_O_3.T @ R, float(q_ref[3])):
-                rows.append((q1, q2, q3, q4, q5, q6))
-    return _wrap(np.array(rows, dtype=float).reshape(-1, 6))
+        for j, (q2, q3, R36) in enumerate(_elbows(params, M, centre, shoulders[i])):
+            q_23 = _nearest_equivalents((q2, q3), bounds[1:3], q_1[1], best_key[0])
+            if q_23 is None:
+                continue
+            for k, wrist in enumerate(_wrist_angles(*R36, q4_ref)):
+                q_456 = _nearest_equivalents(wrist, bounds[3:], q_23[2], best_key[0])
+                if q_456 is not None and (q_456[3], i, j, k) < best_key:
+                    best, best_key = [q_1[0], q_23[0], q_23[1], *q_456[:3]], (q_456[3], i, j, k)
+    return best
+
+
+def _nearest_equivalents(
+    angles: tuple[float, ...], bounds: list[tuple[float, ...]], d2: float, give_up: float
+) -> list[float] | None:
+    """Each angle's 2*pi-equivalent within limits nearest q_near (`select_branches`' rule).
+
+    ``bounds`` holds (lo, hi, lo - tol, hi + tol, anchor, q_near) per angle, anchor = q_near
+    clipped to [lo, hi]. Returns [q_1, ..., q_k, d2 + sum (q_i - q_near_i)^2], or None when
+    an angle has no equivalent within limits or the squared distance exceeds ``give_up``.
+    """
+    pi, two_pi = math.pi, _TWO_PI
+    out = []
+    for v, (lo, hi, lo_t, hi_t, anchor, qn) in zip(angles, bounds, strict=False):  # bounds may be longer
+        base = anchor + (pi - (pi - ((pi - (pi - v) % two_pi) - anchor)) % two_pi)  # _wrap1 twice
+        if lo_t <= base <= hi_t and -3.14 < base - qn < 3.14:
+            pick = base  # every other 2*pi-equivalent is farther than pi from q_near
+        else:
+            pick, d = 0.0, math.inf
+            for k in (-2.0, -1.0, 0.0, 1.0, 2.0):
+                c = base + k * two_pi
+                if lo_t <= c <= hi_t and abs(c - qn) < d:
+                    pick, d = c, abs(c - qn)
+            if d == math.inf:
+                return None
+        if pick < lo:
+            pick = lo
+        elif pick > hi:
+            pick = hi
+        out.append(pick)
+        d2 += (pick - qn) * (pick - qn)
+        if d2 > give_up:
+            return None
+    out.append(d2)
+    return out
 
 
 def _wrap(angles: np.ndarray) -> np.ndarray:
@@ -232,11 +351,15 @@ def select_branches(
     ok = np.isfinite(np.take_along_axis(dist, pick[..., None], -1)[..., 0]).all(axis=1)
     q = np.clip(np.take_along_axis(cand, pick[..., None], -1)[..., 0][ok], q_min, q_max)
     q = q[np.argsort(np.linalg.norm(q - q_near, axis=1), kind="stable")]
-    keep: list[np.ndarray] = []
-    for row in q:
-        if all(np.abs(_wrap(row - k)).max() > duplicate for k in keep):
-            keep.append(row)
-    return np.array(keep).reshape(-1, 6)
+    if q.shape[0] < 2:
+        return q
+    wrapped = _wrap(q[:, None, :] - q[None, :, :])  # (k, k, 6) pairwise differences modulo 2 pi
+    near = np.abs(wrapped).max(axis=-1) <= duplicate
+    keep: list[int] = []
+    for i in range(q.shape[0]):
+        if not near[i, keep].any():
+            keep.append(i)
+    return q[keep]
 
 
 def numerical_branches(

@@ -38,7 +38,7 @@ import numpy as np
 
 from .._validation import as_array, positive
 from ..exceptions import SimulationDivergedError
-from .integrators import rk4_arm_step
+from .integrators import _rk4_arm_step_packed, rk4_arm_step
 
 __all__ = ["ArmPlant", "DivergenceBounds"]
 
@@ -103,7 +103,14 @@ class ArmPlant:
         self._dq_max = np.asarray(arm.dq_max, dtype=float)
         self._tau_max = np.asarray(arm.tau_max, dtype=float)
         self._dq_bound = self.bounds.speed_factor * self._dq_max
+        margin = self.bounds.position_margin
+        self._x_low = np.concatenate([self._q_min - margin, -self._dq_bound])  # packed [q; dq] bounds
+        self._x_high = np.concatenate([self._q_max + margin, self._dq_bound])
+        self._k = np.empty((4, 2 * n))  # RK4 stage derivatives of `_step`
         self._forward_dynamics = arm.forward_dynamics
+        # Unchecked twin for `_step` (an Arm's); the public step keeps the checked one.
+        self._forward_dynamics_unchecked = getattr(arm, "_forward_dynamics", arm.forward_dynamics)
+        self._camera_pose_unchecked = getattr(arm, "_camera_pose", arm.camera_pose)
         q_encoder = np.zeros(n) if q_encoder is None else q_encoder
         self.reset(q_encoder, np.zeros(n) if dq is None else dq, t=t)
 
@@ -113,9 +120,13 @@ class ArmPlant:
         q_encoder = as_array(q_encoder, "q_encoder", (self._n,))
         dq = np.zeros(self._n) if dq is None else as_array(dq, "dq", (self._n,))
         self.t = float(as_array(t, "t", ()))
-        self._q = q_encoder + self.joint_offset
-        self._dq = dq.copy()
+        self._set_state(np.concatenate([q_encoder + self.joint_offset, dq]))
         self.last_tau = np.zeros(self._n)
+
+    def _set_state(self, x: np.ndarray) -> None:
+        """Adopt the packed state x = [q_true; dq] (2n,); ``_q`` and ``_dq`` view it."""
+        self._x = x
+        self._q, self._dq = x[: self._n], x[self._n :]
 
     @property
     def q_true(self) -> np.ndarray:
@@ -135,6 +146,10 @@ class ArmPlant:
     def camera_pose(self) -> np.ndarray:
         """True camera pose ``T_O_C`` (4, 4): ``arm.camera_pose(q_true)``."""
         return self.arm.camera_pose(self._q)
+
+    def _camera_pose(self) -> np.ndarray:
+        """`camera_pose` through the arm's unchecked twin when it has one (the state is finite)."""
+        return self._camera_pose_unchecked(self._q)
 
     # ------------------------------------------------------------------ dynamics
     def step(self, tau: Any, dt: float) -> np.ndarray:
@@ -166,9 +181,35 @@ class ArmPlant:
         self._check(t_next, q_next, dq_next)
         if self.saturate_speed:
             dq_next = np.clip(dq_next, -self._dq_max, self._dq_max)
-        self._q, self._dq, self.t = q_next, dq_next, t_next
+        self._set_state(np.concatenate([q_next, dq_next]))
+        self.t = t_next
         self.last_tau = tau
         return tau
+
+    def _step(self, tau: np.ndarray, dt: float) -> None:
+        """`step` for the simulator: tau a float (n,) array, dt > 0, nothing returned.
+
+        The same RK4 step on the packed state (:func:`~.integrators._rk4_arm_step_packed`,
+        equal up to rounding), the arm's dynamics called without argument checks, and the
+        divergence test as one vectorized comparison (NaN fails it); only when it fails do
+        the checks of :meth:`step` run, in its order, to raise the same error. The caller
+        holds ``np.errstate(all="ignore")`` (the simulation loop does).
+        """
+        if self.saturate_torque:
+            self.step(tau, dt)
+            return
+        x = _rk4_arm_step_packed(self._forward_dynamics_unchecked, self._x, tau, dt, self._k)
+        ok = x >= self._x_low
+        ok &= x <= self._x_high
+        if not ok.all():
+            if not np.all(np.isfinite(tau)):
+                self._diverged(self.t, "tau", tau, "finite values")
+            self._check(self.t + dt, x[: self._n], x[self._n :])
+        if self.saturate_speed:
+            x[self._n :] = np.clip(x[self._n :], -self._dq_max, self._dq_max)
+        self._set_state(x)
+        self.t += dt
+        self.last_tau = tau
 
     def _check(self, t: float, q: np.ndarray, dq: np.ndarray) -> None:
         for name, value in (("q", q), ("dq", dq)):

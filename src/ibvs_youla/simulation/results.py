@@ -252,6 +252,7 @@ class ResultRecorder:
                 dtype=bool if name == "visible" else float,
             )
             for name, tail in _SAMPLE_SHAPES.items()
+            if name != "feature_error"  # derived from features in `result`
         }
         self._n = 0
         self._update_time = np.empty(max(16, int(capacity)))
@@ -280,7 +281,7 @@ class ResultRecorder:
         camera_pose: np.ndarray,
         visible: np.ndarray,
     ) -> None:
-        """Append one sample; ``feature_error = feature_target - features`` is computed here.
+        """Append one sample (``feature_error = feature_target - features`` is derived in :meth:`result`).
 
         Values are copied into the buffers (broadcasting rules of numpy assignment apply,
         so a wrong length raises ``ValueError`` from numpy).
@@ -298,7 +299,6 @@ class ResultRecorder:
         b["q_fb"][i] = q_fb
         b["tau"][i] = tau
         b["features"][i] = features
-        b["feature_error"][i] = self.feature_target - b["features"][i]
         b["camera_pose"][i] = camera_pose
         b["visible"][i] = visible
         self._n = i + 1
@@ -325,6 +325,7 @@ class ResultRecorder:
         return SimulationResult(
             t=self._t[:n].copy(),
             **{name: buf[:n].copy() for name, buf in self._buf.items()},
+            feature_error=self.feature_target - self._buf["features"][:n],
             feature_target=self.feature_target.copy(),
             camera_pose_target=self.camera_pose_target.copy(),
             update_time=self._update_time[: self._m].copy(),

@@ -190,16 +190,25 @@ class _Run:
         return self.recorder.result(status=status, extra_metadata=extra)
 
     def _camera_frame(self, q_enc: np.ndarray) -> np.ndarray:
-        """Measure, estimate, linearize and update the outer loop; return q_fb."""
-        T_O_C = self.plant.camera_pose()
-        p = self.eye.features_at_pose(T_O_C)
+        """Measure, estimate, linearize and update the outer loop; return q_fb.
+
+        One forward-kinematics pass of the true arm gives the camera pose, reused for the
+        features, the visibility flag and the recorded pose of this sample. The library's
+        unchecked twins are called (``_project_flat``, ``_estimate_q``, ``_jacobian``, ``_update``):
+        every array here is built by the loop itself; ``tests/test_fast_paths.py`` pins them
+        to the checked methods.
+        """
+        eye = self.eye
+        camera = eye.camera
+        self.T_O_C = T_O_C = self.plant._camera_pose()
+        P_C = eye.points_in_camera_at_pose(T_O_C)
+        p = camera._project_flat(P_C, eye.virtual_points)
         self.p_measured = p
-        self.visible = self.eye.camera.visibility(self.eye.points_in_camera_at_pose(T_O_C)).all_visible
+        self.visible = camera._all_visible(P_C)
         tic = time.perf_counter()
         e = self.p_target - p
         if self.adaptive:
-            J = self.eye.jacobian(self._configuration_estimate(p, q_enc))
-            q_fb = self.outer.update(e, J)
+            q_fb = self.outer._update(e, eye._jacobian(self._configuration_estimate(p, q_enc)))
         else:
             if self.k == 0:
                 q_lin = (
@@ -207,7 +216,7 @@ class _Run:
                     if self.settings.linearize_at == "start"
                     else self.scenario.q_target
                 )
-                self.outer.set_jacobian(self.eye.jacobian(q_lin))
+                self.outer.set_jacobian(eye.jacobian(q_lin))
             q_fb = self.outer.update(e)
         self.recorder.record_update_time(time.perf_counter() - tic)
         return q_fb
@@ -223,45 +232,54 @@ class _Run:
             return q_enc
         use_previous = self.settings.branch_prior == "previous" and self.q_estimate is not None
         q_near = self.q_estimate if use_previous else q_enc
-        self.q_estimate = self.eye.estimate_q(p, q_near)
+        self.q_estimate = self.eye._estimate_q(p, q_near)
         return self.q_estimate
 
     def _loop(self, bar: Any) -> str:
-        plant, model, inner, dt = self.plant, self.model, self.inner, self.dt
+        # A diverging state raises SimulationDivergedError from the plant; numpy's overflow and
+        # invalid-value warnings on the way there are noise (one errstate for the whole run).
+        with np.errstate(all="ignore"):
+            return self._steps(bar)
+
+    def _steps(self, bar: Any) -> str:
+        plant, model, inner, ff, dt = self.plant, self.model, self.inner, self.ff, self.dt
         camera_every, record_every = self.settings.camera_every, self.settings.record_every
+        n_steps = self.n_steps
+        record, camera_frame = self.recorder.record, self._camera_frame
         q_ff = np.zeros(model.nq)
         q_fb = self.outer.q_fb
         self.q_estimate: np.ndarray | None = None
-        for k in range(self.n_steps + 1):
+        for k in range(n_steps + 1):
             self.k = k
-            q_enc, dq = plant.q_encoder, plant.dq
-            if k % camera_every == 0:
+            q_enc, dq = plant.q_encoder, plant._dq  # arrays the plant replaces, never modifies
+            frame = k % camera_every == 0
+            if frame:
                 try:
-                    q_fb = self._camera_frame(q_enc)
+                    q_fb = camera_frame(q_enc)
                 except (PointBehindCameraError, InvalidDisparityError) as err:
                     self._stop_reason = f"t = {k * dt:.6g} s: {err}"
                     return "markers_lost"
-            if self.ff is not None:
-                q_ff = self.ff.step()
+            if ff is not None:
+                q_ff = ff.step()
             q_ref = q_ff + q_fb
-            v = inner.step(q_ref - q_enc)
-            tau = model.mass_matrix(q_enc) @ v + model.nonlinear_effects(q_enc, dq)
-            if k % record_every == 0 or k == self.n_steps:
-                self.recorder.record(
+            v = inner._step(q_ref - q_enc)
+            tau = model._inverse_dynamics(q_enc, dq, v)  # M(q) v + h(q, dq) of Eq. (33), one RNEA pass
+            if k % record_every == 0 or k == n_steps:
+                record(
                     k * dt,
                     q=q_enc,
-                    q_true=plant.q_true,
+                    q_true=plant._q,
                     dq=dq,
                     q_ref=q_ref,
                     q_ff=q_ff,
                     q_fb=q_fb,
                     tau=tau,
                     features=self.p_measured,
-                    camera_pose=plant.camera_pose(),
+                    camera_pose=self.T_O_C if frame else plant._camera_pose(),
                     visible=self.visible,
                 )
-            if k < self.n_steps:
-                plant.step(tau, dt)
+            if k < n_steps:
+                plant._step(tau, dt)
             if bar is not None and k % 1000 == 0 and k:
                 bar.update(1000)
         return "complete"

@@ -1,0 +1,462 @@
+"""The simulator's fast paths give the numbers of the straightforward code they replace.
+
+Each unchecked twin or scalar rewrite (IK nearest branch, stereo P3P, camera projection and
+visibility, image Jacobian, SVD gains, discrete filters, the plant's packed RK4, the simulation
+loop) is compared with the checked public method or with a literal reference written here, on
+seeded inputs. Timing is measured by ``benchmarks/``, never asserted here.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ibvs_youla import scenarios
+from ibvs_youla._linalg import svd
+from ibvs_youla.control.discrete import DiscreteFilter
+from ibvs_youla.control.outer import OuterLoopDesign, SingularValuePolicy
+from ibvs_youla.estimation.eye_in_hand import EyeInHand
+from ibvs_youla.estimation.stereo_pose import rigid_transform_from_points
+from ibvs_youla.exceptions import SimulationDivergedError, UnreachablePoseError
+from ibvs_youla.model.arm import Arm
+from ibvs_youla.model.camera import PinholeCamera, StereoCamera
+from ibvs_youla.model.ik import (
+    _TWO_PI,
+    SphericalWristParameters,
+    _wrap,
+    _wrist,
+    closed_form_branches,
+    nearest_branch,
+    select_branches,
+)
+from ibvs_youla.simulation.integrators import _rk4_arm_step_packed, rk4_arm_step
+from ibvs_youla.simulation.plant import ArmPlant
+from ibvs_youla.simulation.settings import SimulationSettings
+from ibvs_youla.simulation.simulate import _Run
+
+SEED = 20240611
+
+
+@pytest.fixture(scope="module")
+def arm():
+    return Arm.irb4600()
+
+
+@pytest.fixture(scope="module")
+def camera():
+    return StereoCamera.zed2()
+
+
+def random_q(arm, rng, n):
+    return arm.q_min + (arm.q_max - arm.q_min) * rng.random((n, 6))
+
+
+def projected(T):
+    """The SO(3) projection Arm.ik applies to its input pose."""
+    T = T.copy()
+    U, _, Vt = np.linalg.svd(T[:3, :3])
+    T[:3, :3] = U @ Vt
+    return T
+
+
+# --------------------------------------------------------------------------- inverse kinematics
+def reference_branches(p, T_O_E, q_ref):
+    """Closed-form IK as first written: R_O_3 built as a matrix, R36 = R_O_3^T R by matmul."""
+    R = T_O_E[:3, :3]
+    x, y, z = T_O_E[:3, 3] - p.d6 * R[:, 2]
+    L, beta = math.hypot(p.a3, p.d4), math.atan2(p.d4, p.a3)
+    if math.hypot(x, y) < 1e-10:
+        shoulders = (q_ref[0], q_ref[0] + math.pi)
+    else:
+        front = math.atan2(y, x)
+        shoulders = (front, front - math.pi if front > 0.0 else front + math.pi)
+    rows = []
+    for q1 in shoulders:
+        c1, s1 = math.cos(q1), math.sin(q1)
+        r, s = x * c1 + y * s1 - p.a1, z - p.d1
+        cos_g = (r * r + s * s - p.a2**2 - L * L) / (2.0 * p.a2 * L)
+        if abs(cos_g) > 1.0 + 1e-12:
+            continue
+        gamma0 = math.acos(min(1.0, max(-1.0, cos_g)))
+        for gamma in (gamma0, -gamma0) if gamma0 > 0.0 else (gamma0,):
+            q3 = gamma - beta
+            q2 = math.atan2(r, s) - math.atan2(L * math.sin(gamma), p.a2 + L * math.cos(gamma))
+            sp, cp = math.sin(q2 + q3), math.cos(q2 + q3)
+            R_O_3 = np.array([[sp * c1, s1, cp * c1], [sp * s1, -c1, cp * s1], [cp, 0.0, -sp]])
+            for q4, q5, q6 in _wrist(R_O_3.T @ R, float(q_ref[3])):
+                rows.append((q1, q2, q3, q4, q5, q6))
+    return _wrap(np.array(rows, dtype=float).reshape(-1, 6))
+
+
+def reference_select(branches, q_min, q_max, q_near, tol=1e-9, duplicate=1e-6):
+    """select_branches with its first duplicate filter (row by row against the kept rows)."""
+    if branches.shape[0] == 0:
+        return branches
+    anchor = np.clip(q_near, q_min, q_max)
+    base = anchor + _wrap(branches - anchor)
+    cand = base[..., None] + _TWO_PI * np.arange(-2, 3)
+    inside = (cand >= (q_min - tol)[:, None]) & (cand <= (q_max + tol)[:, None])
+    dist = np.where(inside, np.abs(cand - q_near[:, None]), np.inf)
+    pick = np.argmin(dist, axis=-1)
+    ok = np.isfinite(np.take_along_axis(dist, pick[..., None], -1)[..., 0]).all(axis=1)
+    q = np.clip(np.take_along_axis(cand, pick[..., None], -1)[..., 0][ok], q_min, q_max)
+    q = q[np.argsort(np.linalg.norm(q - q_near, axis=1), kind="stable")]
+    keep = []
+    for row in q:
+        if all(np.abs(_wrap(row - k)).max() > duplicate for k in keep):
+            keep.append(row)
+    return np.array(keep).reshape(-1, 6)
+
+
+def test_scalar_closed_form_matches_the_matrix_form(arm):
+    rng = np.random.default_rng(SEED)
+    p = arm.ik_parameters
+    for q in random_q(arm, rng, 500):
+        T_O_E = arm.flange_pose(q)
+        q_ref = rng.uniform(-3, 3, 6)
+        np.testing.assert_allclose(closed_form_branches(p, T_O_E, q_ref), reference_branches(p, T_O_E, q_ref),
+                                   rtol=0, atol=1e-12)
+
+
+def test_select_branches_keeps_its_duplicate_rule():
+    rng = np.random.default_rng(SEED + 1)
+    q_min, q_max = np.radians([-180, -90, -180, -400, -125, -400]), np.radians([180, 150, 75, 400, 120, 400])
+    for _ in range(300):
+        rows = rng.uniform(-math.pi, math.pi, (8, 6))
+        rows[rng.integers(0, 8, 3)] = rows[rng.integers(0, 8)] + rng.choice([0.0, 1e-7, 2 * math.pi], (3, 6))
+        q_near = rng.uniform(-4, 4, 6)
+        np.testing.assert_array_equal(select_branches(rows, q_min, q_max, q_near),
+                                      reference_select(rows, q_min, q_max, q_near))
+
+
+def test_nearest_branch_is_the_first_selected_branch(arm):
+    """nearest_branch == select_branches(closed_form_branches(...))[0], or None when none is left."""
+    rng = np.random.default_rng(SEED + 2)
+    p, q_min, q_max = arm.ik_parameters, arm.q_min, arm.q_max
+    n_none = 0
+    for i, q in enumerate(random_q(arm, rng, 2000)):
+        T_O_E = arm.flange_pose(q)
+        # q_near close (the loop's case), far, beyond a turn on joints 4/6, or outside the limits
+        spread = (0.01, 0.5, 3.0, 8.0)[i % 4]
+        q_near = q + rng.normal(0.0, spread, 6)
+        expected = select_branches(closed_form_branches(p, T_O_E, q_near), q_min, q_max, q_near)
+        got = nearest_branch(p, T_O_E, q_min.tolist(), q_max.tolist(), q_near.tolist())
+        if expected.shape[0] == 0:
+            assert got is None
+            n_none += 1
+        else:
+            np.testing.assert_array_equal(got, expected[0])  # same arithmetic: same floats
+    assert n_none < 2000
+
+
+def test_ik_nearest_equals_ik_first_row(arm):
+    rng = np.random.default_rng(SEED + 3)
+    for i, q in enumerate(random_q(arm, rng, 1000)):
+        T_O_C = projected(arm.camera_pose(q))
+        q_near = q + rng.normal(0.0, (0.01, 0.3, 2.0)[i % 3], 6)
+        np.testing.assert_allclose(arm._ik_nearest(T_O_C, q_near), arm.ik(T_O_C, q_near=q_near)[0],
+                                   rtol=0, atol=1e-12)
+
+
+def test_ik_nearest_at_singular_and_unreachable_poses(arm):
+    for q in (np.zeros(6), np.radians([30.0, 10.0, -20.0, 50.0, 0.0, -70.0])):  # wrist singular (q5 = 0)
+        T_O_C = projected(arm.camera_pose(q))
+        for q_near in (q, q + 0.2):
+            np.testing.assert_allclose(arm._ik_nearest(T_O_C, q_near), arm.ik(T_O_C, q_near=q_near)[0],
+                                       rtol=0, atol=1e-12)
+    far = arm.camera_pose(np.zeros(6))
+    far[:3, 3] = [5.0, 0.0, 1.0]  # out of reach
+    with pytest.raises(UnreachablePoseError):
+        arm._ik_nearest(far, np.zeros(6))
+
+
+def test_ik_nearest_of_a_numerical_ik_arm_delegates_to_ik():
+    from ibvs_youla.model._resources import example_robot_data_urdf
+
+    ur5 = Arm.from_urdf(example_robot_data_urdf("ur_description/urdf/ur5_robot.urdf"), camera_frame="tool0")
+    assert ur5.ik_parameters is None
+    q = np.array([0.3, -1.0, 1.2, -0.5, 0.8, 0.2])
+    T = ur5.camera_pose(q)
+    np.testing.assert_allclose(ur5._ik_nearest(T, q), ur5.ik(T, q_near=q)[0], rtol=0, atol=1e-12)
+
+
+def test_spherical_wrist_parameters_unchanged():
+    assert SphericalWristParameters.irb4600().d4 == 0.960
+
+
+# --------------------------------------------------------------------------- camera and stereo P3P
+@pytest.mark.parametrize("cam", [StereoCamera.zed2(), StereoCamera.zed2("zed2", "VGA"), PinholeCamera.zed2()])
+def test_scalar_visibility_equals_visibility_report(cam):
+    rng = np.random.default_rng(SEED + 4)
+    agree = []
+    for _ in range(3000):
+        P = rng.normal([0.0, 0.0, 3.0], [3.0, 2.0, 4.0], (3, 3))
+        if rng.random() < 0.2:
+            P[:, 2] = rng.choice([0.0, 1e-10, cam.depth_range[0], cam.depth_range[1]])  # edges
+        agree.append(cam._all_visible(P) == cam.visibility(P).all_visible)
+        if rng.random() < 0.3:  # all in view
+            P = np.column_stack((rng.uniform(-0.3, 0.3, (3, 2)), rng.uniform(1.0, 5.0, 3)))
+            agree.append(cam._all_visible(P) == cam.visibility(P).all_visible)
+    assert all(agree)
+
+
+def test_flat_projection_and_interaction_are_the_array_versions(camera):
+    rng = np.random.default_rng(SEED + 5)
+    for _ in range(100):
+        P = rng.normal([0.0, 0.0, 3.0], [1.0, 1.0, 1.0], (3, 3))
+        P[:, 2] = np.abs(P[:, 2]) + 0.5
+        np.testing.assert_array_equal(camera._project_flat(P, False), camera.project(P).reshape(-1))
+        u = camera.project(P)
+        np.testing.assert_allclose(camera.triangulate(u), P, rtol=1e-12, atol=0)
+        L = camera.interaction_matrix(P)
+        for i, (X, Y, Z) in enumerate(P):  # literal rows of the docstring, point by point
+            for r, x0 in enumerate((0.06, -0.06)):
+                uu = camera.focal_length * (X - x0) / Z
+                F = camera.focal_length
+                row = [-F / Z, 0, uu / Z, uu * Y / Z, -F - uu * X / Z, F * Y / Z]
+                np.testing.assert_allclose(L[3 * i + r], row, rtol=1e-13, atol=0)
+
+
+def literal_kabsch(P_from, P_to):
+    c_from, c_to = P_from.mean(axis=0), P_to.mean(axis=0)
+    U, _, Vt = np.linalg.svd((P_from - c_from).T @ (P_to - c_to))
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T))])
+    R = Vt.T @ D @ U.T
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, c_to - R @ c_from
+    return T
+
+
+def test_stereo_pose_fast_path_equals_literal_kabsch(arm, camera):
+    rng = np.random.default_rng(SEED + 6)
+    sc = scenarios.paper(2)
+    eye = EyeInHand(arm, camera, sc.markers_O, virtual_points=True)
+    for _ in range(300):
+        q = sc.q_start + rng.normal(0.0, 0.3, 6)
+        p = eye.features(q)
+        P_C = camera.triangulate(p.reshape(3, 3), allow_behind=True)
+        expected = literal_kabsch(P_C, eye.markers_O)
+        np.testing.assert_allclose(eye.estimate_camera_pose(p), expected, rtol=0, atol=1e-12)
+        T = rigid_transform_from_points(P_C, eye.markers_O)
+        np.testing.assert_allclose(T, expected, rtol=0, atol=1e-12)
+    # a reflection case: exactly three points, where the det correction matters half the time
+    flips = 0
+    for _ in range(200):
+        A = rng.normal(size=(3, 3))
+        B = rng.normal(size=(3, 3))
+        flips += np.linalg.det(np.linalg.svd((A - A.mean(0)).T @ (B - B.mean(0)))[2]) < 0
+        T = rigid_transform_from_points(A, B)
+        np.testing.assert_allclose(T, literal_kabsch(A, B), rtol=0, atol=1e-12)
+    assert 0 < flips < 200
+
+
+def test_eye_in_hand_twins_equal_the_checked_methods(arm, camera):
+    rng = np.random.default_rng(SEED + 7)
+    for sc in scenarios.paper_scenarios():
+        eye = EyeInHand(arm, camera, sc.markers_O, virtual_points=True)
+        for _ in range(100):
+            q = sc.q_start + rng.normal(0.0, 0.2, 6)
+            J = eye.jacobian(q)
+            np.testing.assert_allclose(eye._jacobian(q), J, rtol=0, atol=1e-14 * np.abs(J).max())
+            p = eye.features(q)
+            q_near = q + rng.normal(0.0, 0.01, 6)
+            reference = arm.ik(eye.estimate_camera_pose(p), q_near=q_near)[0]
+            np.testing.assert_allclose(eye._estimate_q(p, q_near), reference, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(eye.estimate_q(p, q_near), reference, rtol=0, atol=1e-9)
+
+
+def test_arm_twins_equal_the_checked_methods(arm):
+    rng = np.random.default_rng(SEED + 8)
+    for q in random_q(arm, rng, 50):
+        dq, v = rng.normal(0, 2, 6), rng.normal(0, 10, 6)
+        tau = arm.inverse_dynamics(q, dq, v)
+        np.testing.assert_array_equal(arm._forward_dynamics(q, dq, tau), arm.forward_dynamics(q, dq, tau))
+        np.testing.assert_array_equal(arm._inverse_dynamics(q, dq, v), tau)
+        scale = np.abs(tau).max()
+        M_v_plus_h = arm.mass_matrix(q) @ v + arm.nonlinear_effects(q, dq)
+        np.testing.assert_allclose(arm._inverse_dynamics(q, dq, v), M_v_plus_h, rtol=0, atol=1e-12 * scale)
+        T, J = arm._camera_pose_and_jacobian(q)
+        np.testing.assert_array_equal(T, arm.camera_pose(q))
+        np.testing.assert_allclose(J, arm.camera_jacobian(q), rtol=0, atol=1e-14)
+
+
+# --------------------------------------------------------------------------- control
+def test_direct_lapack_svd_equals_numpy_svd():
+    rng = np.random.default_rng(SEED + 9)
+    for shape in [(9, 6), (3, 3), (6, 9)]:
+        A = rng.normal(size=shape)
+        U, s, Vt = svd(A)
+        np.testing.assert_allclose(s, np.linalg.svd(A, compute_uv=False), rtol=1e-14, atol=0)
+        np.testing.assert_allclose((U * s) @ Vt, A, rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("policy", [SingularValuePolicy(), SingularValuePolicy("truncate", 0.05),
+                                    SingularValuePolicy("damped", 0.0)])
+def test_scalar_gains_and_pseudo_inverse_equal_the_array_versions(policy):
+    rng = np.random.default_rng(SEED + 10)
+    for rank in (6, 5, 4):
+        for _ in range(20):
+            J = rng.normal(size=(9, rank)) @ rng.normal(size=(rank, 6))  # rank-deficient when rank < 6
+            U, s, Vt = np.linalg.svd(J, full_matrices=False)
+            g = policy.gains(s, 9)
+            dec = policy._decompose(J)
+            np.testing.assert_allclose(dec.sigma, s, rtol=1e-13, atol=1e-15)
+            np.testing.assert_allclose(dec.gains, g, rtol=1e-12, atol=1e-300)
+            np.testing.assert_allclose(dec.pinv, (Vt.T * g) @ U.T, rtol=0, atol=1e-12 * np.abs(g).max())
+
+
+def test_stacked_filter_step_equals_the_state_space_recursion():
+    design = OuterLoopDesign()
+    filt = DiscreteFilter.from_tf(design.filter_tf(), 1e-3, 6)
+    A, B, C, D = filt.matrices
+    rng = np.random.default_rng(SEED + 11)
+    x = rng.normal(size=(A.shape[0], 6))
+    filt.reset(x)
+    for _ in range(300):
+        u = rng.normal(size=6)
+        y_ref = C @ x + D * u
+        x = A @ x + np.outer(B, u)
+        y = filt.step(u)
+        np.testing.assert_allclose(y, y_ref, rtol=1e-12, atol=1e-12 * np.abs(y_ref).max())
+        np.testing.assert_allclose(filt.state, x, rtol=1e-12, atol=1e-12 * np.abs(x).max())
+
+
+def test_unchecked_outer_update_equals_update(arm, camera):
+    design = OuterLoopDesign()
+    a, b = design.runtime(1e-3), design.runtime(1e-3)
+    a.reset(np.full(6, 0.1))
+    b.reset(np.full(6, 0.1))
+    sc = scenarios.paper(2)
+    eye = EyeInHand(arm, camera, sc.markers_O, virtual_points=True)
+    rng = np.random.default_rng(SEED + 12)
+    for _ in range(200):
+        q = sc.q_start + rng.normal(0.0, 0.2, 6)
+        J, e = eye.jacobian(q), rng.normal(0.0, 1e-4, 9)
+        np.testing.assert_allclose(a._update(e, J), b.update(e, J), rtol=1e-12, atol=1e-15)
+    dec_a, dec_b = a.last_decomposition, b.last_decomposition
+    for x, y in zip(dec_a, dec_b, strict=True):
+        np.testing.assert_allclose(np.abs(x), np.abs(y), rtol=1e-12, atol=1e-12)  # vectors up to sign
+
+
+# --------------------------------------------------------------------------- plant and simulation loop
+def test_packed_rk4_equals_rk4_arm_step(arm):
+    rng = np.random.default_rng(SEED + 13)
+    k = np.empty((4, 12))
+    for q in random_q(arm, rng, 50):
+        dq, tau = rng.normal(0, 1, 6), rng.normal(0, 500, 6)
+        q1, dq1 = rk4_arm_step(arm.forward_dynamics, q, dq, tau, 1e-3)
+        x1 = _rk4_arm_step_packed(arm._forward_dynamics, np.concatenate([q, dq]), tau, 1e-3, k)
+        np.testing.assert_allclose(x1[:6], q1, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(x1[6:], dq1, rtol=0, atol=1e-12 * np.abs(dq1).max())
+
+
+@pytest.mark.parametrize("saturate", [False, True])
+def test_plant_fast_step_equals_step(arm, saturate):
+    d = np.full(6, np.radians(1.0))
+    q0 = scenarios.paper(2).q_start
+    a = ArmPlant(arm, d, q_encoder=q0, saturate_torque=saturate, saturate_speed=saturate)
+    b = ArmPlant(arm, d, q_encoder=q0, saturate_torque=saturate, saturate_speed=saturate)
+    rng = np.random.default_rng(SEED + 14)
+    for _ in range(200):
+        tau = arm.gravity(a.q_true) + rng.normal(0.0, 300.0, 6)
+        with np.errstate(all="ignore"):
+            a._step(tau, 1e-3)
+        b.step(tau, 1e-3)
+        np.testing.assert_allclose(a.q_true, b.q_true, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=1e-10)
+        np.testing.assert_array_equal(a.q_encoder, a.q_true - d)
+        assert a.t == b.t
+    np.testing.assert_array_equal(a.last_tau, b.last_tau)
+
+
+@pytest.mark.parametrize("tau", [np.full(6, 1e12), np.full(6, np.nan)])
+def test_plant_fast_step_raises_the_same_divergence(arm, tau):
+    errors = []
+    for fast in (True, False):
+        plant = ArmPlant(arm, q_encoder=np.zeros(6))
+        with pytest.raises(SimulationDivergedError) as info, np.errstate(all="ignore"):
+            (plant._step if fast else plant.step)(tau, 1e-3)
+        errors.append(info.value)
+        np.testing.assert_array_equal(plant.q_true, np.zeros(6))  # state kept at the failed step's start
+    assert str(errors[0]) == str(errors[1])
+    assert errors[0].quantity == errors[1].quantity
+
+
+class _ReferenceRun(_Run):
+    """The simulation loop written plainly with the checked public methods (the pre-optimization loop)."""
+
+    def _camera_frame(self, q_enc):
+        T_O_C = self.plant.camera_pose()
+        p = self.eye.features_at_pose(T_O_C)
+        self.p_measured = p
+        self.visible = self.eye.camera.visibility(self.eye.points_in_camera_at_pose(T_O_C)).all_visible
+        e = self.p_target - p
+        if self.adaptive:
+            q_fb = self.outer.update(e, self.eye.jacobian(self._configuration_estimate(p, q_enc)))
+        else:
+            if self.k == 0:
+                q_lin = (self._configuration_estimate(p, q_enc) if self.settings.linearize_at == "start"
+                         else self.scenario.q_target)
+                self.outer.set_jacobian(self.eye.jacobian(q_lin))
+            q_fb = self.outer.update(e)
+        self.recorder.record_update_time(0.0)
+        return q_fb
+
+    def _configuration_estimate(self, p, q_enc):
+        if not self.settings.estimate_from_image:
+            return q_enc
+        use_previous = self.settings.branch_prior == "previous" and self.q_estimate is not None
+        q_near = self.q_estimate if use_previous else q_enc
+        self.q_estimate = self.eye.estimate_q(p, q_near)
+        return self.q_estimate
+
+    def _steps(self, bar):
+        plant, model, inner, dt = self.plant, self.model, self.inner, self.dt
+        q_ff, q_fb = np.zeros(6), self.outer.q_fb
+        self.q_estimate = None
+        for k in range(self.n_steps + 1):
+            self.k = k
+            q_enc, dq = plant.q_encoder, plant.dq
+            if k % self.settings.camera_every == 0:
+                q_fb = self._camera_frame(q_enc)
+            if self.ff is not None:
+                q_ff = self.ff.step()
+            q_ref = q_ff + q_fb
+            v = inner.step(q_ref - q_enc)
+            tau = model.mass_matrix(q_enc) @ v + model.nonlinear_effects(q_enc, dq)
+            if k % self.settings.record_every == 0 or k == self.n_steps:
+                self.recorder.record(k * dt, q=q_enc, q_true=plant.q_true, dq=dq, q_ref=q_ref, q_ff=q_ff,
+                                     q_fb=q_fb, tau=tau, features=self.p_measured,
+                                     camera_pose=plant.camera_pose(), visible=self.visible)
+            if k < self.n_steps:
+                plant.step(tau, dt)
+        return "complete"
+
+
+@pytest.mark.parametrize(
+    ("scenario", "controller", "adaptive", "settings"),
+    [
+        ("paper-1", "ff+fb", True, SimulationSettings.paper()),
+        ("paper-2", "ff+fb", True, SimulationSettings.paper()),
+        ("paper-1", "fb", True, SimulationSettings.paper(branch_prior="previous", record_every=3)),
+        ("paper-2", "fb", False, SimulationSettings.paper()),
+        ("paper-1", "ff+fb", True, SimulationSettings()),  # 100 Hz camera
+        ("physical-2", "ff+fb", True, SimulationSettings(feedforward="smooth", saturate=True)),
+    ],
+)
+def test_optimized_simulation_loop_equals_the_plain_loop(arm, camera, scenario, controller, adaptive,
+                                                          settings):
+    sc = scenarios.get(scenario)
+    fast = _Run(sc, controller, adaptive, 0.3, settings, arm, camera).run(False)
+    plain = _ReferenceRun(sc, controller, adaptive, 0.3, settings, arm, camera).run(False)
+    assert fast.metadata["status"] == plain.metadata["status"] == "complete"
+    np.testing.assert_array_equal(fast.t, plain.t)
+    np.testing.assert_array_equal(fast.visible, plain.visible)
+    for name in ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau", "features", "feature_error",
+                 "camera_pose"):
+        a, b = getattr(fast, name), getattr(plain, name)
+        # Rounding differences (RNEA for M v + h, packed RK4, direct LAPACK) stay at round-off relative to
+        # each signal's scale: the paper's 1 ms feedforward drives tau to ~1e7 N m.
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-10 * max(1.0, np.abs(b).max()), err_msg=name)

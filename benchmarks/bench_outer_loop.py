@@ -1,0 +1,217 @@
+"""Time one adaptive outer-loop update, its parts, its floor and the literal rebuild, in one run.
+
+The update is what the simulator does at every camera frame of an adaptive run
+(``_Run._camera_frame``): features from the camera (forward kinematics of the true arm and
+stereo projection, Eq. (11), (24)), the configuration estimate of Eq. (62) (stereo P3P +
+closed-form IK, nearest branch), the image Jacobian L(P_C) J_C(q~) of Eq. (51), its SVD with
+the singular-value policy and pseudo-inverse (Eq. (57), ERRATA 7), and the controller state
+update q_fb = K(z)[J^+ e] (ERRATA 9); plus the per-frame visibility flag and bookkeeping.
+
+Configurations: seeded random perturbations (0.05 rad) of points on the joint path of both
+paper scenarios, each with the previous estimate ``q_near`` 0.01 rad away, as in a running
+loop. Every call is timed alone (``time.perf_counter``); calls are interleaved, so the update,
+its parts and its floor see the same machine load; medians and 95th percentiles are reported.
+
+Floor: the calls an update cannot avoid, timed alone on the same data: Pinocchio forward
+kinematics + frame placement of the camera, its LOCAL frame Jacobian, and the bare LAPACK
+``dgesdd`` of the 9x6 image Jacobian and of the 3x3 cross-covariance of stereo P3P.
+``floor_median_us`` is the sum of their medians; ``ratio_to_floor`` = update / floor.
+
+Rebuild: Eq. (58)-(61) built literally every frame with python-control (MIMO transfer
+matrices and a minimal state-space realization, :func:`ibvs_youla.control.literal.literal_mimo`),
+reported as ``rebuild_ratio`` = rebuild median / update median.
+
+Run: ``python benchmarks/bench_outer_loop.py --json outer_loop.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import gc
+import sys
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+from scipy.linalg import lapack
+
+try:  # imported as benchmarks.bench_outer_loop
+    from ._timing import machine, perf_counter, summary_us, write_json
+except ImportError:  # run as a script
+    from _timing import machine, perf_counter, summary_us, write_json
+
+from ibvs_youla import scenarios
+from ibvs_youla.control.outer import OuterLoopDesign
+from ibvs_youla.model.arm import Arm
+from ibvs_youla.model.camera import StereoCamera
+from ibvs_youla.simulation.settings import SimulationSettings
+from ibvs_youla.simulation.simulate import _Run
+
+PARTS = ("features", "visibility", "pose_ik", "jacobian", "svd", "state_update")
+FLOOR = ("fk", "frame_jacobian", "svd_9x6", "svd_3x3")
+
+
+def _configurations(arm: Arm, n: int, seed: int) -> list[tuple[Any, np.ndarray]]:
+    """n (scenario, q_true) on both paper scenarios' joint paths, perturbed by 0.05 rad, within limits."""
+    rng = np.random.default_rng(seed)
+    out = []
+    paper = scenarios.paper_scenarios()
+    while len(out) < n:
+        sc = paper[len(out) % 2]
+        q = sc.q_start + rng.random() * (sc.q_target - sc.q_start) + 0.05 * rng.standard_normal(6)
+        out.append((sc, np.clip(q, arm.q_min + 0.01, arm.q_max - 0.01)))
+    return out
+
+
+def _runs(arm: Arm, camera: StereoCamera) -> dict[str, _Run]:
+    settings = SimulationSettings.paper()  # adaptive outer loop at every 1 kHz sample
+    return {
+        sc.name: _Run(sc, "ff+fb", True, 1.0, settings, arm, camera) for sc in scenarios.paper_scenarios()
+    }
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    """Run the benchmark, print a summary, write JSON if asked; return the report."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--json", metavar="FILE", help="write the report here")
+    ap.add_argument("--configs", type=int, default=200, help="seeded configurations (default 200)")
+    ap.add_argument("--repeats", type=int, default=15, help="timed passes over them (default 15)")
+    ap.add_argument("--rebuilds", type=int, default=15, help="timed literal rebuilds (default 15)")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args(argv)
+
+    arm, camera = Arm.irb4600(), StereoCamera.zed2()
+    runs = _runs(arm, camera)
+    model, data, cam_id = arm.model, arm.model.createData(), arm._camera_id
+    configs = _configurations(arm, args.configs, args.seed)
+
+    # Data of each configuration, computed once with the library's checked methods.
+    outers = {name: copy.deepcopy(run.outer) for name, run in runs.items()}  # for the timed parts
+    prepared = []
+    for sc, q_true in configs:
+        run = runs[sc.name]
+        eye = run.eye
+        q_enc = q_true - sc.joint_offset  # Eq. (62) picks the branch nearest the encoders
+        p = eye.features(q_true)
+        q_est = eye.estimate_q(p, q_enc)
+        J = eye.jacobian(q_est)
+        H = eye.camera.triangulate(p.reshape(-1, 3), allow_behind=True)
+        H = (H - H.mean(axis=0)).T @ (eye.markers_O - eye.markers_O.mean(axis=0))
+        prepared.append((run, outers[sc.name], q_true, q_enc, q_est, J, H))
+
+    names = (*PARTS, *FLOOR, "svd_9x6_numpy", "svd_3x3_numpy")
+    times: dict[str, list[float]] = {k: [] for k in ("update", *names)}
+
+    def one_pass(record: bool) -> None:
+        for run, outer, q_true, q_enc, q_est, J, H in prepared:
+            run.plant.reset(q_enc)
+            run.q_estimate = None
+            run.k = 1
+            t0 = perf_counter()
+            run._camera_frame(q_enc)  # the update, as the simulator runs it
+            t_update = perf_counter() - t0
+
+            # Its parts, timed alone on the same data, calling what _camera_frame calls.
+            eye, camera = run.eye, run.eye.camera
+            t = [perf_counter()]
+            T_O_C = run.plant._camera_pose()
+            P_C = eye.points_in_camera_at_pose(T_O_C)
+            p_meas = camera._project(P_C, eye.virtual_points).reshape(-1)
+            t.append(perf_counter())
+            camera._all_visible(P_C)
+            t.append(perf_counter())
+            q_hat = eye._estimate_q(p_meas, q_enc)
+            t.append(perf_counter())
+            J_hat = eye._jacobian(q_hat)
+            t.append(perf_counter())
+            U, _, g, Vt = outer._policy._svd_gains(J_hat)
+            t.append(perf_counter())
+            # the state update as OuterLoopController._update does it
+            outer._filter._step(Vt.T.dot(g * U.T.dot(run.p_target - p_meas)))
+            t.append(perf_counter())
+
+            # The floor: bare Pinocchio and LAPACK calls on the same data.
+            pin.forwardKinematics(model, data, q_true)
+            pin.updateFramePlacement(model, data, cam_id)
+            t.append(perf_counter())
+            pin.computeFrameJacobian(model, data, q_est, cam_id, pin.LOCAL)
+            t.append(perf_counter())
+            lapack.dgesdd(J, 1, 0)  # compute_uv, full_matrices
+            t.append(perf_counter())
+            lapack.dgesdd(H, 1, 0)
+            t.append(perf_counter())
+            np.linalg.svd(J, full_matrices=False)
+            t.append(perf_counter())
+            np.linalg.svd(H)
+            t.append(perf_counter())
+            if record:
+                times["update"].append(t_update)
+                for name, a, b in zip(names, t[:-1], t[1:], strict=True):
+                    times[name].append(b - a)
+
+    gc_was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        for _ in range(3):
+            one_pass(record=False)  # warm-up
+        for _ in range(args.repeats):
+            one_pass(record=True)
+    finally:
+        if gc_was_enabled:
+            gc.enable()
+
+    s = SimulationSettings.paper()
+    design = OuterLoopDesign(s.omega_n, s.zeta, s.tau_in, s.sv_policy)
+    rebuild = []
+    design.literal_mimo(prepared[0][5])  # warm-up
+    for i in range(args.rebuilds):
+        J = prepared[i % len(prepared)][5]
+        t0 = perf_counter()
+        design.literal_mimo(J)
+        rebuild.append(perf_counter() - t0)
+
+    stats = {name: summary_us(v) for name, v in times.items()}
+    update = stats["update"]
+    floor = sum(stats[name]["median_us"] for name in FLOOR)
+    floor_numpy = floor - stats["svd_9x6"]["median_us"] - stats["svd_3x3"]["median_us"] + (
+        stats["svd_9x6_numpy"]["median_us"] + stats["svd_3x3_numpy"]["median_us"]
+    )
+    rebuild_stats = summary_us(rebuild)
+    report: dict[str, Any] = {
+        "benchmark": "outer_loop",
+        "update_median_us": update["median_us"],
+        "update_p95_us": update["p95_us"],
+        "floor_median_us": floor,
+        "ratio_to_floor": update["median_us"] / floor,
+        "rebuild_median_us": rebuild_stats["median_us"],
+        "rebuild_ratio": rebuild_stats["median_us"] / update["median_us"],
+        **{f"{name}_median_us": stats[name]["median_us"] for name in PARTS},
+        "parts_sum_median_us": sum(stats[name]["median_us"] for name in PARTS),
+        "floor_numpy_svd_median_us": floor_numpy,
+        "stats": {**stats, "rebuild": rebuild_stats},
+        "settings": {"configs": args.configs, "repeats": args.repeats, "rebuilds": args.rebuilds,
+                     "seed": args.seed},
+        "machine": machine(),
+    }
+    _print(report)
+    write_json(args.json, report)
+    return report
+
+
+def _print(r: dict[str, Any]) -> None:
+    s = r["stats"]
+    print(f"adaptive outer-loop update: median {r['update_median_us']:.1f} us, "
+          f"p95 {r['update_p95_us']:.1f} us (n = {s['update']['n']})")
+    for name in PARTS:
+        print(f"  {name:<14} {s[name]['median_us']:8.2f} us  (p95 {s[name]['p95_us']:.2f})")
+    print(f"floor {r['floor_median_us']:.2f} us  (ratio update/floor {r['ratio_to_floor']:.2f}; "
+          f"with numpy's svd wrapper {r['floor_numpy_svd_median_us']:.2f} us)")
+    for name in (*FLOOR, "svd_9x6_numpy", "svd_3x3_numpy"):
+        print(f"  {name:<14} {s[name]['median_us']:8.2f} us")
+    print(f"literal python-control rebuild: median {r['rebuild_median_us'] / 1e3:.2f} ms, "
+          f"{r['rebuild_ratio']:.0f}x the update")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

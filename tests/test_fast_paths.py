@@ -23,10 +23,10 @@ from ibvs_youla.exceptions import SimulationDivergedError, UnreachablePoseError
 from ibvs_youla.model.arm import Arm
 from ibvs_youla.model.camera import PinholeCamera, StereoCamera
 from ibvs_youla.model.ik import (
+    _SINGULAR,
     _TWO_PI,
     SphericalWristParameters,
     _wrap,
-    _wrist,
     closed_form_branches,
     nearest_branch,
     select_branches,
@@ -62,6 +62,22 @@ def projected(T):
 
 
 # --------------------------------------------------------------------------- inverse kinematics
+def reference_wrist(R36, q4_ref):
+    """Wrist angles as first written, on the 3x3 matrix R36 (two-argument arctangents, ERRATA 5)."""
+    m = math.hypot(R36[0, 2], R36[1, 2])
+    if m < _SINGULAR:
+        if R36[2, 2] > 0.0:
+            return [(q4_ref, 0.0, math.atan2(R36[1, 0], R36[0, 0]) - q4_ref)]
+        return [(q4_ref, math.pi, q4_ref - math.atan2(-R36[1, 0], -R36[0, 0]))]
+    out = []
+    for sign in (1.0, -1.0):
+        q5 = math.atan2(sign * m, R36[2, 2])
+        q4 = math.atan2(-sign * R36[1, 2], -sign * R36[0, 2])
+        q6 = math.atan2(-sign * R36[2, 1], sign * R36[2, 0])
+        out.append((q4, q5, q6))
+    return out
+
+
 def reference_branches(p, T_O_E, q_ref):
     """Closed-form IK as first written: R_O_3 built as a matrix, R36 = R_O_3^T R by matmul."""
     R = T_O_E[:3, :3]
@@ -85,7 +101,7 @@ def reference_branches(p, T_O_E, q_ref):
             q2 = math.atan2(r, s) - math.atan2(L * math.sin(gamma), p.a2 + L * math.cos(gamma))
             sp, cp = math.sin(q2 + q3), math.cos(q2 + q3)
             R_O_3 = np.array([[sp * c1, s1, cp * c1], [sp * s1, -c1, cp * s1], [cp, 0.0, -sp]])
-            for q4, q5, q6 in _wrist(R_O_3.T @ R, float(q_ref[3])):
+            for q4, q5, q6 in reference_wrist(R_O_3.T @ R, float(q_ref[3])):
                 rows.append((q1, q2, q3, q4, q5, q6))
     return _wrap(np.array(rows, dtype=float).reshape(-1, 6))
 
@@ -113,7 +129,8 @@ def reference_select(branches, q_min, q_max, q_near, tol=1e-9, duplicate=1e-6):
 def test_scalar_closed_form_matches_the_matrix_form(arm):
     rng = np.random.default_rng(SEED)
     p = arm.ik_parameters
-    for q in random_q(arm, rng, 500):
+    singular = [np.zeros(6), np.radians([30.0, 10.0, -20.0, 50.0, 0.0, -70.0])]  # wrist singular, q5 = 0
+    for q in [*singular, *random_q(arm, rng, 500)]:
         T_O_E = arm.flange_pose(q)
         q_ref = rng.uniform(-3, 3, 6)
         np.testing.assert_allclose(closed_form_branches(p, T_O_E, q_ref), reference_branches(p, T_O_E, q_ref),
@@ -321,6 +338,20 @@ def test_stacked_filter_step_equals_the_state_space_recursion():
         y = filt.step(u)
         np.testing.assert_allclose(y, y_ref, rtol=1e-12, atol=1e-12 * np.abs(y_ref).max())
         np.testing.assert_allclose(filt.state, x, rtol=1e-12, atol=1e-12 * np.abs(x).max())
+
+
+def test_filter_copies_keep_their_state():
+    import copy
+
+    filt = DiscreteFilter.from_tf(OuterLoopDesign().filter_tf(), 1e-3, 6)
+    filt.reset_output(np.ones(6))
+    twin = copy.deepcopy(filt)
+    for _ in range(5):
+        np.testing.assert_array_equal(filt.step(np.full(6, 0.1)), twin.step(np.full(6, 0.1)))
+    twin.reset()
+    np.testing.assert_array_equal(twin.state, 0.0)
+    np.testing.assert_array_equal(twin.step(np.zeros(6)), 0.0)
+    assert np.abs(filt.state).max() > 0.0
 
 
 def test_unchecked_outer_update_equals_update(arm, camera):

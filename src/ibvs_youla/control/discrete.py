@@ -77,10 +77,9 @@ class DiscreteFilter:
         self._C = C.copy()
         self._D = float(D_arr[0])
         # One step is one product [x[k+1]; y[k]] = [[A, B], [C, D]] [x[k]; u[k]] into the other
-        # of two (n + 1, m) buffers; self._x views the state rows of the current one.
+        # of two (n + 1, m) buffers; the state is the first n rows of the current one (`_x`).
         self._M = np.block([[self._A, self._B], [self._C[None, :], np.array([[self._D]])]])
         self._z, self._z_next = np.zeros((n + 1, m)), np.zeros((n + 1, m))
-        self._x, self._x_next = self._z[:n], self._z_next[:n]
         self._shape = (m,)
 
     @classmethod
@@ -122,6 +121,11 @@ class DiscreteFilter:
         return cls(Ad, Bd, Cd, Dd, dt, n_channels)
 
     # ------------------------------------------------------------------ properties
+    @property
+    def _x(self) -> np.ndarray:
+        """The (n, m) state: a view of the current buffer (not stored, so copies stay consistent)."""
+        return self._z[:-1]
+
     @property
     def dt(self) -> float:
         """Sampling period [s]."""
@@ -179,7 +183,6 @@ class DiscreteFilter:
         z[-1] = u
         self._M.dot(z, out=z_next)  # [A x + B u; C x + D u]
         self._z, self._z_next = z_next, z
-        self._x, self._x_next = self._x_next, self._x
         return z_next[-1].copy()
 
     # ------------------------------------------------------------------ resets

@@ -9,6 +9,7 @@ R = V U^T is a reflection half of the time unless det-corrected.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -35,7 +36,6 @@ COINCIDENT_TOL = 1e-12  # points coincide when their spread s1 <= this * max(|P_
 COLLINEAR_TOL = 1e-6  # points are collinear when s2 <= this * s1 (s: singular values of the centred set)
 _FLIP_Z = np.array([1.0, 1.0, -1.0])
 _EYE4 = np.eye(4)
-_ONES: dict[int, np.ndarray] = {}  # n -> np.ones(n), read-only use
 
 
 def check_marker_geometry(P: object, name: str = "P", weights: np.ndarray | None = None) -> np.ndarray:
@@ -88,12 +88,17 @@ def _kabsch_centred(P_from: np.ndarray, Q_to: np.ndarray, c_to: np.ndarray) -> n
     points need no centring (the rounding of sum_i Q_to,i ~ eps |P_to| is what remains).
     """
     n = P_from.shape[0]
-    ones = _ONES.get(n)
-    if ones is None:
-        ones = _ONES[n] = np.ones(n)
-    c_from = ones.dot(P_from) / n  # Eq. (C10), the mean (a product: cheaper than a reduction)
+    c_from = _ones(n).dot(P_from) / n  # Eq. (C10), the mean (a product: cheaper than a reduction)
     H = P_from.T.dot(Q_to)  # Eq. (C12)-(C14): sum_i P'_from,i P'_to,i^T
     return _fit(H, c_from, c_to)
+
+
+@lru_cache(maxsize=8)
+def _ones(n: int) -> np.ndarray:
+    """A read-only vector of n ones (memoized)."""
+    ones = np.ones(n)
+    ones.setflags(write=False)
+    return ones
 
 
 def _fit(H: np.ndarray, c_from: np.ndarray, c_to: np.ndarray) -> np.ndarray:

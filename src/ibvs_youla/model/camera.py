@@ -192,7 +192,8 @@ class _Sensor:
             if (abs(Z) if allow_behind else Z) < MIN_ABS_DEPTH:
                 _check_depth(P_C[:, 2], allow_behind)
             Fiz = F / Z
-            out.extend([(X - x0) * Fiz for x0 in lens_x])
+            for x0 in lens_x:
+                out.append((X - x0) * Fiz)
             out.append(Y * Fiz)
         return np.array(out, dtype=float)
 

@@ -140,18 +140,13 @@ class SphericalWristParameters:
         return cand
 
 
-def _wrist(R36: np.ndarray, q4_ref: float) -> list[tuple[float, float, float]]:
-    """(q4, q5, q6) with Rz(q4) Ry(-q5) Rz(q6) = R36: two flips, or one choice when singular."""
-    return _wrist_angles(
-        float(R36[0, 0]), float(R36[0, 2]), float(R36[1, 0]), float(R36[1, 2]),
-        float(R36[2, 0]), float(R36[2, 1]), float(R36[2, 2]), q4_ref,
-    )
-
-
 def _wrist_angles(
     r00: float, r02: float, r10: float, r12: float, r20: float, r21: float, r22: float, q4_ref: float
 ) -> list[tuple[float, float, float]]:
-    """`_wrist` on the seven entries of R36 it reads (scalars, hot path)."""
+    """(q4, q5, q6) with Rz(q4) Ry(-q5) Rz(q6) = R36, from the seven entries of R36 it needs.
+
+    Two flips, or one choice when singular (module docstring).
+    """
     m = math.hypot(r02, r12)  # |sin q5|
     if m < _SINGULAR:
         if r22 > 0.0:  # q5 = 0: R36 = Rz(q4 + q6)

@@ -227,12 +227,12 @@ def closed_form_branches(
     M = np.asarray(T_O_E, dtype=float).tolist()
     centre, shoulders = _shoulders(params, M, float(q_ref[0]))
     rows = [
-        [_wrap1(v) for v in (q1, q2, q3, *wrist)]
+        (q1, q2, q3, *wrist)
         for q1 in shoulders
         for q2, q3, R36 in _elbows(params, M, centre, q1)
         for wrist in _wrist_angles(*R36, q4_ref)
     ]
-    return np.array(rows, dtype=float).reshape(-1, 6)
+    return _wrap(np.array(rows, dtype=float).reshape(-1, 6))
 
 
 def nearest_branch(
@@ -341,18 +341,19 @@ def select_branches(
     base = anchor + _wrap(branches - anchor)  # (k, 6), nearest equivalent to the anchor
     cand = base[..., None] + _TWO_PI * np.arange(-2, 3)  # (k, 6, 5)
     inside = (cand >= (q_min - tol)[:, None]) & (cand <= (q_max + tol)[:, None])
-    dist = np.where(inside, np.abs(cand - q_near[:, None]), np.inf)
-    pick = np.argmin(dist, axis=-1)
-    ok = np.isfinite(np.take_along_axis(dist, pick[..., None], -1)[..., 0]).all(axis=1)
-    q = np.clip(np.take_along_axis(cand, pick[..., None], -1)[..., 0][ok], q_min, q_max)
+    dist = np.where(inside, np.abs(cand - q_near[:, None]), np.inf).reshape(-1, 5)
+    pick = np.argmin(dist, axis=-1)  # first nearest equivalent of each joint
+    flat = np.arange(pick.size)
+    ok = np.isfinite(dist[flat, pick]).reshape(branches.shape).all(axis=1)
+    q = np.clip(cand.reshape(-1, 5)[flat, pick].reshape(branches.shape)[ok], q_min, q_max)
     q = q[np.argsort(np.linalg.norm(q - q_near, axis=1), kind="stable")]
     if q.shape[0] < 2:
         return q
     wrapped = _wrap(q[:, None, :] - q[None, :, :])  # (k, k, 6) pairwise differences modulo 2 pi
-    near = np.abs(wrapped).max(axis=-1) <= duplicate
+    near = (np.abs(wrapped).max(axis=-1) <= duplicate).tolist()
     keep: list[int] = []
-    for i in range(q.shape[0]):
-        if not near[i, keep].any():
+    for i, row in enumerate(near):
+        if not any(row[j] for j in keep):
             keep.append(i)
     return q[keep]
 

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import pinocchio as pin
@@ -87,6 +88,12 @@ class SphericalWristParameters:
             raise InvalidParameterError("a2", self.a2, "> 0 m")
         if math.hypot(self.a3, self.d4) <= 0.0:
             raise InvalidParameterError("(a3, d4)", (self.a3, self.d4), "not both zero")
+
+    @cached_property
+    def _elbow_constants(self) -> tuple[float, float, float]:
+        """(L, beta, 2 a2 L) of the law of cosines (module docstring), computed once."""
+        L = math.hypot(self.a3, self.d4)
+        return L, math.atan2(self.d4, self.a3), 2.0 * self.a2 * L
 
     @classmethod
     def irb4600(cls) -> SphericalWristParameters:
@@ -186,11 +193,10 @@ def _elbows(
     """
     (r00, r01, r02, _), (r10, r11, r12, _), (r20, r21, r22, _) = T_O_E[0], T_O_E[1], T_O_E[2]
     x, y, z = centre
-    L = math.hypot(p.a3, p.d4)
-    beta = math.atan2(p.d4, p.a3)
+    L, beta, two_a2_L = p._elbow_constants
     c1, s1 = math.cos(q1), math.sin(q1)
     r, s = x * c1 + y * s1 - p.a1, z - p.d1  # joint 2 -> wrist centre, radial and vertical [m]
-    cos_g = (r * r + s * s - p.a2**2 - L * L) / (2.0 * p.a2 * L)
+    cos_g = (r * r + s * s - p.a2**2 - L * L) / two_a2_L
     if abs(cos_g) > 1.0 + 1e-12:
         return []
     gamma0 = math.acos(min(1.0, max(-1.0, cos_g)))

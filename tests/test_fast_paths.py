@@ -258,6 +258,11 @@ def test_stereo_pose_fast_path_equals_literal_kabsch(arm, camera):
         np.testing.assert_allclose(eye.estimate_camera_pose(p), expected, rtol=0, atol=1e-12)
         T = rigid_transform_from_points(P_C, eye.markers_O)
         np.testing.assert_allclose(T, expected, rtol=0, atol=1e-12)
+    # far from the origin (1e6 m) with a 1 m spread: centring keeps the fit exact to round-off
+    A = rng.normal(size=(3, 3)) + 1e6
+    T_true = literal_kabsch(rng.normal(size=(3, 3)), rng.normal(size=(3, 3)))
+    B = A @ T_true[:3, :3].T + T_true[:3, 3]
+    np.testing.assert_allclose(rigid_transform_from_points(A, B)[:3, :3], T_true[:3, :3], rtol=0, atol=1e-9)
     # a reflection case: exactly three points, where the det correction matters half the time
     flips = 0
     for _ in range(200):

@@ -82,14 +82,10 @@ def _kabsch(P_from: np.ndarray, P_to: np.ndarray, w: np.ndarray | None = None) -
 
 
 def _kabsch_centred(P_from: np.ndarray, Q_to: np.ndarray, c_to: np.ndarray) -> np.ndarray:
-    """`_kabsch` (unweighted) with the target points given centred, Q_to = P_to - c_to (fixed markers).
-
-    Since sum_i Q_to,i = 0, H = sum_i (P_from,i - c_from) Q_to,i^T = P_from^T Q_to: the source
-    points need no centring (the rounding of sum_i Q_to,i ~ eps |P_to| is what remains).
-    """
+    """`_kabsch` (unweighted) with the target points given centred, Q_to = P_to - c_to (fixed markers)."""
     n = P_from.shape[0]
     c_from = _ones(n).dot(P_from) / n  # Eq. (C10), the mean (a product: cheaper than a reduction)
-    H = P_from.T.dot(Q_to)  # Eq. (C12)-(C14): sum_i P'_from,i P'_to,i^T
+    H = (P_from - c_from).T.dot(Q_to)  # Eq. (C12)-(C14): sum_i P'_from,i P'_to,i^T
     return _fit(H, c_from, c_to)
 
 

@@ -8,11 +8,12 @@ the singular-value policy and pseudo-inverse (Eq. (57), ERRATA 7), and the contr
 update q_fb = K(z)[J^+ e] (ERRATA 9); plus the per-frame visibility flag and bookkeeping.
 
 Configurations: seeded random perturbations (0.05 rad) of points on the joint path of both
-paper scenarios, each with the previous estimate ``q_near`` 0.01 rad away, as in a running
-loop. Every call is timed alone (``time.perf_counter``) in a pass over all configurations: a
-pass of updates, a pass of their parts, a pass of the floor calls, alternating for every round,
-so that all see the same machine load; medians and 95th percentiles are reported. (Inside the
-simulator, between joint-loop steps, the same update costs ~10 % more: see bench_simulation.py.)
+paper scenarios, the encoders reading q_true - d (the default branch prior of Eq. (62) picks
+the IK branch nearest them). Every call is timed alone (``time.perf_counter``) in a pass over
+all configurations: a pass of updates, a pass of their parts, a pass of the floor calls,
+alternating for every round, so that all see the same machine load; medians and 95th
+percentiles are reported. (Inside the simulator, between joint-loop steps, the same update
+costs 5-10 % more: bench_simulation.py.)
 
 Floor: the calls an update cannot avoid, timed alone on the same data: Pinocchio forward
 kinematics + frame placement of the camera, its LOCAL frame Jacobian, and the bare LAPACK

@@ -7,36 +7,15 @@ import pytest
 
 from ibvs_youla.analysis.convergence import Tolerances, classify
 from ibvs_youla.exceptions import InvalidParameterError
-from ibvs_youla.simulation.results import SimulationResult
+from synthetic import synthetic_result
 
 
 def _result(error_norm, *, pose_offset_m=0.0, status="complete"):
-    """A run whose feature error along one fixed direction has the given norm over time."""
-    n = len(error_norm)
-    t = np.linspace(0.0, 10.0, n)
-    direction = np.ones(9) / 3.0  # unit vector
+    """A run whose feature error along one fixed unit direction has the given norm over time."""
     target = np.linspace(-1e-3, 1e-3, 9)
-    feature_error = np.outer(error_norm, direction)
-    pose = np.tile(np.eye(4), (n, 1, 1))
-    pose[:, 0, 3] = pose_offset_m
-    zeros = np.zeros((n, 6))
-    return SimulationResult(
-        t=t,
-        q=zeros,
-        q_true=zeros,
-        dq=zeros,
-        q_ref=zeros,
-        q_ff=zeros,
-        q_fb=zeros,
-        tau=zeros,
-        features=target - feature_error,
-        feature_target=target,
-        feature_error=feature_error,
-        camera_pose=pose,
-        camera_pose_target=np.eye(4),
-        visible=np.ones((n, 3), bool),
-        update_time=np.zeros(0),
-        metadata={"status": status},
+    feature_error = np.outer(error_norm, np.ones(9) / 3.0)
+    return synthetic_result(
+        target - feature_error, target, camera_x_m=pose_offset_m, metadata={"status": status}
     )
 
 

@@ -9,30 +9,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from ibvs_youla.analysis.paper_figures import plot_image_comparison, plot_joint_comparison
-from ibvs_youla.simulation.results import SimulationResult
+from synthetic import synthetic_result
 
 
 def _result(features, q):
-    n = len(features)
-    zeros = np.zeros((n, 6))
-    target = np.full(9, 1e-3)
-    return SimulationResult(
-        t=np.linspace(0.0, 2.0, n),
-        q=q,
-        q_true=q,
-        dq=zeros,
-        q_ref=q,
-        q_ff=zeros,
-        q_fb=q,
-        tau=zeros,
-        features=features,
-        feature_target=target,
-        feature_error=target - features,
-        camera_pose=np.tile(np.eye(4), (n, 1, 1)),
-        camera_pose_target=np.eye(4),
-        visible=np.ones((n, 3), bool),
-        update_time=np.zeros(0),
-        metadata={"q_encoder_goal": [0.1] * 6},
+    return synthetic_result(
+        features, np.full(9, 1e-3), duration=2.0, q=q, metadata={"q_encoder_goal": [0.1] * 6}
     )
 
 

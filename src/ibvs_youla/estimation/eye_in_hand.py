@@ -3,9 +3,11 @@
 Sec. 4.4-4.5 (Eq. 21-25): P_C = T_C_O P_O, p_image = M(P_C) (Eq. 11), so p_image = F(q, Pa, P_O)
 (Eq. 24). Sec. 6.3: the 9x6 Jacobian J = L(P_C) J_C(q) (Eq. 51, ERRATA 12) and the estimate
 q~ = F^-1(p_image) (Eq. 62) through stereo P3P (Sec. 3, Appendix C) and the arm's inverse kinematics.
-These methods run every camera frame: arguments are not re-validated, constants are precomputed.
-The simulator calls the underscored twins (`_jacobian`, `_estimate_q`), which also skip the arm's
-argument checks and share its kinematics passes; tests pin them to the plain methods.
+The public methods validate their arguments (a NaN or mis-shaped input raises InvalidArrayError,
+never a NaN result or a bare numpy error); constants are precomputed. The simulator calls the
+underscored twins (`_points_in_camera_at_pose`, `_features_at_pose`, `_estimate_camera_pose`,
+`_jacobian`, `_estimate_q`), which skip these checks and the arm's and share its kinematics passes;
+tests pin them to the plain methods.
 """
 
 from __future__ import annotations
@@ -14,8 +16,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._validation import as_array
-from ..exceptions import InvalidParameterError
+from .._validation import as_array, as_pose
+from ..exceptions import InvalidArrayError, InvalidParameterError
 from ..model.camera import StereoCamera, Visibility
 from .stereo_pose import _kabsch_centred, check_marker_geometry
 
@@ -60,25 +62,38 @@ class EyeInHand:
         return 3 * self.markers_O.shape[0]
 
     def points_in_camera_at_pose(self, T_O_C: np.ndarray) -> np.ndarray:
-        """Markers in the camera frame, P_C = T_C_O P_O (Eq. 21-22), (n, 3) [m]."""
+        """Markers in the camera frame, P_C = T_C_O P_O (Eq. 21-22), (n, 3) [m].
+
+        Raises:
+            InvalidArrayError: ``T_O_C`` is not a finite 4x4 rigid transform.
+        """
+        return self._points_in_camera_at_pose(as_pose(T_O_C, "T_O_C"))
+
+    def _points_in_camera_at_pose(self, T_O_C: np.ndarray) -> np.ndarray:
+        """`points_in_camera_at_pose` with ``T_O_C`` a float 4x4 rigid transform (unchecked)."""
         R = T_O_C[:3, :3]
         return (self.markers_O - T_O_C[:3, 3]).dot(R)  # rows R^T (P_O - t)
 
     def points_in_camera(self, q: np.ndarray) -> np.ndarray:
         """Markers in the camera frame at joint angles q (6,) [rad], (n, 3) [m]."""
-        return self.points_in_camera_at_pose(self.arm.camera_pose(q))
+        return self._points_in_camera_at_pose(self.arm.camera_pose(q))
 
     def features_at_pose(self, T_O_C: np.ndarray) -> np.ndarray:
         """Stereo features (3n,) [m] of the markers seen from camera pose T_O_C (Eq. 11, 21).
 
         Raises:
+            InvalidArrayError: ``T_O_C`` is not a finite 4x4 rigid transform.
             PointBehindCameraError: a marker has Z_C <= 0 (only |Z_C| ~ 0 with virtual points).
         """
-        return self.camera._project_flat(self.points_in_camera_at_pose(T_O_C), self.virtual_points)
+        return self._features_at_pose(as_pose(T_O_C, "T_O_C"))
+
+    def _features_at_pose(self, T_O_C: np.ndarray) -> np.ndarray:
+        """`features_at_pose` with ``T_O_C`` a float 4x4 rigid transform (unchecked)."""
+        return self.camera._project_flat(self._points_in_camera_at_pose(T_O_C), self.virtual_points)
 
     def features(self, q: np.ndarray) -> np.ndarray:
         """Eye-in-hand map F of Eq. (24): stereo features (3n,) [m] at joint angles q (6,) [rad]."""
-        return self.features_at_pose(self.arm.camera_pose(q))
+        return self._features_at_pose(self.arm.camera_pose(q))
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
         """Image Jacobian dF/dq (3n, 6) of Eq. (51) (9x6 for three markers, ERRATA 12).
@@ -92,7 +107,7 @@ class EyeInHand:
     def _jacobian(self, q: np.ndarray) -> np.ndarray:
         """`jacobian` from one kinematics pass of the arm (``Arm._camera_pose_and_jacobian``), unchecked."""
         T_O_C, J_C = self.arm._camera_pose_and_jacobian(q)
-        return self.camera._interaction(self.points_in_camera_at_pose(T_O_C), self.virtual_points).dot(J_C)
+        return self.camera._interaction(self._points_in_camera_at_pose(T_O_C), self.virtual_points).dot(J_C)
 
     def visibility(self, q: np.ndarray) -> Visibility:
         """Depth sign, field of view and depth range of every marker at q (ERRATA 13)."""
@@ -104,10 +119,24 @@ class EyeInHand:
         Triangulates the markers (Eq. C6-C8) and fits T_O_C with P_O ≈ T_O_C P_C (Eq. C10-C17).
 
         Raises:
+            InvalidArrayError: ``p_image`` is not a finite (3n,) or (n, 3) array, n the number of markers.
             InvalidDisparityError: a marker's disparity is ~0, or negative without virtual points.
         """
-        p = np.asarray(p_image, dtype=float)
-        p = p.reshape(p.size // 3, 3)
+        return self._estimate_camera_pose(self._check_features(p_image))
+
+    def _check_features(self, p_image: object) -> np.ndarray:
+        """``p_image`` as a finite (n, 3) float array, n the number of markers (accepts (3n,) or (n, 3))."""
+        n = self.markers_O.shape[0]
+        p = as_array(p_image, "p_image")
+        if p.shape not in ((3 * n,), (n, 3)):
+            raise InvalidArrayError(
+                "p_image", f"an array of shape {p.shape}",
+                f"shape ({3 * n},) or ({n}, 3): [u_l, u_r, v] for each of the {n} markers")
+        return p.reshape(n, 3)
+
+    def _estimate_camera_pose(self, p_image: np.ndarray) -> np.ndarray:
+        """`estimate_camera_pose` with ``p_image`` a finite float (3n,) or (n, 3) array (unchecked)."""
+        p = p_image.reshape(p_image.size // 3, 3)
         return _kabsch_centred(self.camera._triangulate(p, self.virtual_points), self._markers_centred,
                                self._markers_mean)
 
@@ -115,15 +144,16 @@ class EyeInHand:
         """Joint angles q~ = F^-1(p_image) of Eq. (62) (6,) [rad]: the IK branch nearest to q_near.
 
         Raises:
-            InvalidArrayError: ``q_near`` is not a finite (6,) array.
+            InvalidArrayError: ``p_image`` is not a finite (3n,) or (n, 3) array, or ``q_near`` not a
+                finite (6,) array.
             InvalidDisparityError: see `estimate_camera_pose`.
             UnreachablePoseError: no IK branch within the joint limits reaches the estimated pose.
         """
-        return self._estimate_q(p_image, as_array(q_near, "q_near", (6,)))
+        return self._estimate_q(self._check_features(p_image), as_array(q_near, "q_near", (6,)))
 
     def _estimate_q(self, p_image: np.ndarray, q_near: np.ndarray) -> np.ndarray:
-        """`estimate_q` with ``q_near`` a finite float (6,) array (unchecked): the arm's nearest-branch IK."""
-        T_O_C = self.estimate_camera_pose(p_image)
+        """`estimate_q` with finite float ``p_image`` and ``q_near`` (6,) (unchecked): nearest-branch IK."""
+        T_O_C = self._estimate_camera_pose(p_image)
         nearest = getattr(self.arm, "_ik_nearest", None)
         return self.arm.ik(T_O_C, q_near=q_near)[0] if nearest is None else nearest(T_O_C, q_near)
 

@@ -49,7 +49,8 @@ def test_noisy_camera_motions_still_give_a_rotation():
     X_est = calibrate_hand_eye(A, B)
     assert np.linalg.det(X_est[:3, :3]) == pytest.approx(1.0, abs=1e-12)
     rot, trans = pose_error(X_est, X)
-    assert 1e-4 <= rot <= 1e-2 and 1e-4 <= trans <= 2e-2
+    assert rot == pytest.approx(1.736e-3, rel=1e-3)  # [rad] seeded statistic (measured 1.73587e-3)
+    assert trans == pytest.approx(1.327e-3, rel=1e-3)  # [m] seeded statistic (measured 1.32744e-3)
 
 
 def test_too_few_or_degenerate_motions():
@@ -112,8 +113,8 @@ def test_simulated_run_degrades_smoothly_with_pixel_noise():
     averages 19 motions. Looser than 1e-6 on purpose: these are noise statistics.
     """
     med = {s: np.median(calibration_errors(s, 20, 51), axis=0) for s in (0.01, 0.1, 1.0)}
-    assert 3e-3 <= med[0.1][0] <= 3e-2  # rotation [rad]
-    assert 1e-2 <= med[0.1][1] <= 1e-1  # translation [m]
+    assert med[0.1][0] == pytest.approx(2.0196e-2, rel=1e-3)  # rotation [rad], seeded statistic
+    assert med[0.1][1] == pytest.approx(3.5805e-2, rel=1e-3)  # translation [m], seeded statistic
     for small, large in ((0.01, 0.1), (0.1, 1.0)):  # 10x the noise -> ~10x the error
         assert 6.0 <= med[large][0] / med[small][0] <= 14.0
         assert 6.0 <= med[large][1] / med[small][1] <= 14.0

@@ -92,6 +92,73 @@ def test_sampled_step_chain_is_even_faster_than_continuous():
     np.testing.assert_allclose(q[-1], Q1_DES, rtol=0, atol=1e-9)
 
 
+def test_sampled_step_at_1_khz_is_far_from_the_ideal():
+    """dt = tau_f = 1 ms: ZOH T_forward -> Tustin G_C -> ZOH double integrator.
+
+    Scenario 1's joint-4 step of -82.68 deg peaks at 292x the 250 deg/s limit (the ideal
+    |Delta|/(e tau_f) gives 122x) and swings to 2.80 times the step (-232 deg).
+    """
+    d = FeedforwardDesign()
+    speed, overshoot = d.sampled_step_demand(Q1_DES[3], DT)
+    assert speed / V_MAX[3] == pytest.approx(292.4, rel=0.01)
+    assert overshoot == pytest.approx(1.801, rel=0.01)
+    assert np.degrees(Q1_DES[3]) * (1.0 + overshoot) == pytest.approx(-231.6, rel=0.01)
+    assert speed / d.step_demand(Q1_DES[3])[0] == pytest.approx(2.403, rel=0.01)
+    # linear in the step: every joint scales, the overshoot fraction is shared
+    speeds, ov6 = d.sampled_step_demand(Q1_DES, DT)
+    np.testing.assert_allclose(speeds / np.abs(Q1_DES), speed / abs(Q1_DES[3]), rtol=1e-12)
+    assert ov6 == overshoot
+
+
+def test_sampled_step_at_10_khz():
+    d = FeedforwardDesign()
+    speed, overshoot = d.sampled_step_demand(Q1_DES[3], 1e-4)
+    assert speed / V_MAX[3] == pytest.approx(134.7, rel=0.01)
+    assert overshoot == pytest.approx(0.137, rel=0.01)
+
+
+def test_sampled_step_tends_to_the_ideal():
+    d = FeedforwardDesign()
+    ideal = d.step_demand(1.0)[0]
+    ratios, overshoots = [], []
+    for dt in (1e-3, 1e-4, 1e-5, 1e-6):
+        speed, overshoot = d.sampled_step_demand(1.0, dt, horizon=0.05)
+        ratios.append(float(speed / ideal))
+        overshoots.append(overshoot)
+    assert np.all(np.diff(ratios) < 0.0) and np.all(np.diff(overshoots) < 0.0)
+    assert ratios[-1] == pytest.approx(1.0, abs=2e-3)
+    assert overshoots[-1] < 2e-3
+    # the sampled position response approaches q(t) = 1 - (1 + t/tau_f) e^(-t/tau_f)
+    dt = 1e-6
+    t = np.arange(0, 10001) * dt
+    q = ct.step_response(d.sampled_tracking(dt), t).outputs[0, 0]
+    ideal_q = 1.0 - (1.0 + t / d.tau_forward) * np.exp(-t / d.tau_forward)
+    assert np.abs(q - ideal_q).max() < 5e-3
+
+
+def test_sampled_tracking_matches_the_runtime_filters():
+    """The discrete system is the runtime chain: step_runtime + discrete_controller + exact ZOH plant."""
+    d = FeedforwardDesign()
+    n = 300
+    y = ct.step_response(d.sampled_tracking(DT, 2), np.arange(n) * DT).outputs  # (4 outputs, 2 inputs, n)
+    assert y.shape == (4, 2, n)
+    np.testing.assert_allclose(y[0, 0], y[1, 1], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(y[2, 0], y[3, 1], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(y[1, 0], 0.0, atol=0)
+    rt = d.step_runtime(np.zeros(1), np.ones(1), DT)
+    gc = InnerLoopDesign().discrete_controller(DT, 1)
+    q = dq = 0.0
+    qs, dqs = [], []
+    for _ in range(n):
+        qs.append(q)
+        dqs.append(dq)
+        v = float(gc.step(rt.step() - q)[0])
+        q, dq = q + DT * dq + 0.5 * DT**2 * v, dq + DT * v
+    np.testing.assert_allclose(y[0, 0], qs, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(y[2, 0], dqs, rtol=0, atol=1e-6)
+    assert y[0, 0, -1] == pytest.approx(1.0, abs=1e-4)
+
+
 def test_minimum_jerk_profile():
     traj = MinimumJerkTrajectory([0.0, 1.0], [2.0, -1.0], 1.6)
     np.testing.assert_allclose(traj.position(0.0), [0.0, 1.0])
@@ -153,3 +220,13 @@ def test_validation():
         FeedforwardDesign().step_runtime(np.zeros(6), np.zeros(5))
     with pytest.raises(InvalidParameterError, match="duration"):
         MinimumJerkTrajectory(np.zeros(2), np.ones(2), 0.0)
+    traj = MinimumJerkTrajectory(np.zeros(2), np.ones(2), 1.0)
+    for bad in (np.nan, np.inf, -np.inf):
+        with pytest.raises(InvalidParameterError, match="finite time"):
+            traj.position(bad)
+        with pytest.raises(InvalidParameterError, match="finite time"):
+            traj.velocity(bad)
+    with pytest.raises(InvalidParameterError, match="dt"):
+        FeedforwardDesign().sampled_tracking(0.02)  # dt > tau_in
+    with pytest.raises(InvalidParameterError, match="n_joints"):
+        FeedforwardDesign().sampled_tracking(DT, 0)

@@ -27,12 +27,12 @@ _SENSOR_MM = 1e3  # sensor metres -> millimetres
 
 
 def _new_figure(n_rows: int, title: str) -> tuple[Figure, np.ndarray]:
-    import matplotlib
+    # No pyplot (as in .plots): the figure needs no display and never touches the
+    # caller's backend; a notebook shows it by displaying the returned Figure.
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(n_rows, 2, sharex=True, figsize=(10.0, 1.35 * n_rows + 1.2), squeeze=False)
+    fig = Figure(figsize=(10.0, 1.35 * n_rows + 1.2))
+    axes = fig.subplots(n_rows, 2, sharex=True, squeeze=False)
     fig.suptitle(title)
     return fig, axes
 

@@ -225,8 +225,6 @@ def reproduce(
 def _figures(
     folder: Path, name: str, adaptive: bool, by_variant: dict[tuple[str, bool], SimulationResult]
 ) -> dict[str, Path]:
-    import matplotlib.pyplot as plt
-
     mode = "adaptive" if adaptive else "fixed"
     fig_joints, fig_image = PAPER_FIGURES.get(name, (None, None))
     fb, ffb = by_variant[("fb", adaptive)], by_variant[("ff+fb", adaptive)]
@@ -239,8 +237,7 @@ def _figures(
         what = "joint angles" if kind == "joints" else "image coordinates"
         fig = plot(fb, ffb, f"{label} ({name}, {mode} outer loop): {what}")
         path = folder / f"{name}_{mode}_{kind}.png"
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
+        fig.savefig(path, dpi=110)  # a pyplot-free Figure: nothing to close, freed with the reference
         written[f"figure:{name}_{mode}_{kind}"] = path
     return written
 

@@ -118,9 +118,13 @@ class InnerLoopDesign:
         """G_C at the joint-loop rate, one channel per joint: ``v = filt.step(q_ref - q)``.
 
         Tustin is the default: it keeps the controller's pole at -3/tau stable for any
-        dt and matches G_C's phase near the crossover 1/tau, so the sampled loop keeps
-        a phase margin of 50.3 deg at 1 kHz (53.1 deg continuous); ZOH of a controller
-        has no physical meaning here and loses more phase.
+        dt, maps s = 0 to z = 1 and matches G_C's phase near the crossover 1/tau.
+        Margins of the sampled loop (ZOH double integrator, tau = 10 ms; continuous
+        53.1 deg, infinite gain margin): at dt = 1 ms Tustin gives phase margin
+        50.26 deg and gain margin 17.7, ZOH of the controller 51.65 deg and 15.8, so
+        at 1 kHz ZOH keeps slightly *more* phase (and less gain margin). Only at
+        slower rates does Tustin win clearly: at dt = 5 ms 38.7 deg / 3.5 (Tustin)
+        against 27.6 deg / 2.0 (ZOH).
 
         Args:
             dt: Joint-loop sampling period [s]; at most tau (slower sampling leaves

@@ -20,9 +20,15 @@ corrected, so the clip costs at most one step of consistency).
 the value and the bound, instead of ever holding NaN, when
 
 * ``tau`` (input), ``q`` or ``dq`` holds a non-finite entry;
-* ``|dq_i| > speed_factor * dq_max_i`` (default 1000x: the paper's 1 ms feedforward,
-  ERRATA 11, legitimately reaches about 120x the speed limit of joint 4 in scenario 1,
-  so a tighter bound would reject the paper's own setting);
+* ``|dq_i| > speed_factor * dq_max_i`` (default 1000x, a safety net for numerical
+  blow-up, not a physical limit: the paper's 1 ms feedforward, ERRATA 11, sampled at
+  dt = tau_f, legitimately reaches 292x the speed limit of joint 4 in scenario 1 (the
+  ideal continuous formula says 122x; ``FeedforwardDesign.sampled_step_demand``), so a
+  tighter bound would reject the paper's own setting. Even 1000x is not enough for
+  every legal step: a 149.5 deg step of joint 2 through the same feedforward exceeds
+  it through the arm's coupling (joint 3 reaches 3194 rad/s at t = 2 ms, beyond
+  1000 x 175 deg/s = 3054 rad/s); raise ``DivergenceBounds.speed_factor`` to
+  run such a step);
 * ``q_true`` leaves ``[q_min - position_margin, q_max + position_margin]`` (default
   margin one full turn, 2 pi rad: the paper does not enforce joint limits, but a joint a
   whole turn beyond its mechanical stop is a diverged run).

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import re
 from pathlib import Path
 
@@ -35,10 +37,18 @@ def test_readme_python_snippets_run(tmp_path, monkeypatch):
     monkeypatch.setenv("IBVS_YOULA_SMALL", "1")
     namespace: dict = {"__name__": "__readme__"}
     executed = 0
+    out = io.StringIO()
     for i, block in enumerate(blocks):
         try:
-            exec(compile(block, f"README.md python block {i + 1}", "exec"), namespace)
+            with contextlib.redirect_stdout(out):
+                exec(compile(block, f"README.md python block {i + 1}", "exec"), namespace)
         except Exception as exc:  # name the block in the failure
             pytest.fail(f"README.md python block {i + 1} raised {type(exc).__name__}: {exc}\n{block}")
         executed += 1
     assert executed == len(blocks)
+    # What the first-run snippet says it prints: the status, then an image error that has
+    # come down from the start (paper-2 starts ~2e-3 m away; 2 s of the 100 Hz default run).
+    lines = out.getvalue().splitlines()
+    assert lines[0] == "complete"
+    assert 1e-5 < float(lines[1]) < 1e-3
+    assert "(3 tau s + 1)" in (ROOT / "README.md").read_text() and "0.03 s + 1" in out.getvalue()

@@ -11,7 +11,8 @@ a measurement on a :class:`~ibvs_youla.simulation.results.SimulationResult`:
   controller (for the outer loop q_fb = K(z)[J^+ e] every equilibrium has J^+ e = 0,
   so the residual e lies in the left null space of the Jacobian the controller uses);
 * **converging**: not reached and still moving;
-* **markers_lost** / **diverged**: the run stopped early (``metadata["status"]``).
+* **markers_lost** / **estimate_failed** / **diverged**: the run stopped early
+  (``metadata["status"]``, see :func:`ibvs_youla.simulate`).
 """
 
 from __future__ import annotations
@@ -65,7 +66,8 @@ class Outcome:
     """Verdict on one run, with the numbers behind it.
 
     Attributes:
-        kind: ``"reached"``, ``"stalled"``, ``"converging"``, ``"markers_lost"`` or ``"diverged"``.
+        kind: ``"reached"``, ``"stalled"``, ``"converging"``, or the status of a run that
+            stopped early: ``"markers_lost"``, ``"estimate_failed"``, ``"diverged"``.
         final_image_error_m: Largest final |e| over the nine coordinates [m].
         point_errors_m: Largest final |e| per marker (3,) [m]: which points are unmatched.
         position_error_mm: Final camera position error [mm].

@@ -191,10 +191,7 @@ def reproduce(
                 by_variant[(controller, adaptive)] = result
                 outcome = classify(result)
                 extended = None
-                if (
-                    outcome.kind not in ("reached", "markers_lost", "diverged")
-                    and diagnosis_duration > duration
-                ):
+                if outcome.kind in ("stalled", "converging") and diagnosis_duration > duration:
                     long_key = run_key(name, controller, adaptive, f"__{diagnosis_duration:g}s")
                     long_settings = replace(settings, record_every=max(settings.record_every, 10))
                     long_result = _run(

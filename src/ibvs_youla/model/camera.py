@@ -240,22 +240,26 @@ class _Sensor:
 
     def _all_visible(self, P_C: np.ndarray) -> bool:
         """``visibility(P_C).all_visible`` for valid points (n, 3), in scalar arithmetic (hot path)."""
+        return all(self._visible_each(P_C))
+
+    def _visible_each(self, P_C: np.ndarray) -> list[bool]:
+        """``visibility(P_C).visible`` for valid points (n, 3), as a list, in scalar arithmetic (hot path)."""
         F, pitch, skew = self.focal_length, self.pixel_pitch, self.skew
         u0, v0 = self.principal_point
         u_max, v_max = self.sensor_width / pitch, self.sensor_height / pitch
         z_min, z_max = self.depth_range
         lens_x = self._lens_x
+        out = []
         for X, Y, Z in P_C.tolist():
-            if not (Z >= MIN_ABS_DEPTH and z_min <= Z <= z_max):
-                return False
-            Fiz = F / Z
-            v = Y * Fiz
-            if not 0 <= v / pitch + v0 <= v_max:
-                return False
-            for x0 in lens_x:
-                if not 0 <= (X - x0) * Fiz / pitch + skew * v / F + u0 <= u_max:
-                    return False
-        return True
+            ok = Z >= MIN_ABS_DEPTH and z_min <= Z <= z_max
+            if ok:
+                Fiz = F / Z
+                v = Y * Fiz
+                ok = 0 <= v / pitch + v0 <= v_max and all(
+                    0 <= (X - x0) * Fiz / pitch + skew * v / F + u0 <= u_max for x0 in lens_x
+                )
+            out.append(ok)
+        return out
 
     def to_pixels(self, p: object) -> np.ndarray:
         """Feature rows [m on the sensor] -> [px] through K of Eq. (6) (the stereo lenses share K)."""

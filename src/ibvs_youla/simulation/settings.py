@@ -3,8 +3,9 @@
 The gains default to the paper's (Section 7, Eq. (63)-(66)): tau_in = 0.01 s,
 omega_n = 10 rad/s, zeta = 10, tau_forward = 0.1 tau_in, no actuator saturation.
 The joint loop runs at 1 kHz and the camera, by default, at 100 Hz (the ZED 2's
-WVGA frame rate); :meth:`SimulationSettings.paper` runs both at 1 kHz as the paper
-does.
+highest frame rate, in its VGA mode); :meth:`SimulationSettings.paper` runs the camera
+at the joint rate. The paper states no sampling rate: one rate for both loops is its
+idealization, and 1 kHz the joint rate used here.
 """
 
 from __future__ import annotations
@@ -12,7 +13,9 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from .._validation import non_negative, one_of, positive
+import numpy as np
+
+from .._validation import one_of, positive
 from ..control.outer import SingularValuePolicy
 from ..exceptions import InvalidParameterError
 
@@ -29,9 +32,9 @@ class SimulationSettings:
 
     Attributes:
         joint_rate_hz: Joint-loop (inner controller, feedforward, RK4) rate [Hz].
-        camera_rate_hz: Camera / outer-loop rate [Hz]; default 100 Hz, the ZED 2's WVGA
-            frame rate (ERRATA 15); ``None`` runs it at the joint rate, as the paper does.
-            Must divide the joint rate.
+        camera_rate_hz: Camera / outer-loop rate [Hz]; default 100 Hz, the ZED 2's VGA
+            frame rate (ERRATA 15); ``None`` runs it at the joint rate (the paper's
+            idealization). Must divide the joint rate.
         tau_in: Inner-loop time constant tau_in [s] (Eq. (41), (63)).
         omega_n: Outer-loop natural frequency [rad/s] (Eq. (56), (64)).
         zeta: Outer-loop damping ratio (Eq. (56), (66)).
@@ -77,7 +80,7 @@ class SimulationSettings:
 
     @classmethod
     def paper(cls, **overrides: Any) -> SimulationSettings:
-        """The paper's settings (Section 7): joint loop and camera both at 1 kHz."""
+        """The paper's settings (Section 7): its gains, camera and joint loop at one rate (1 kHz)."""
         return cls(**{"camera_rate_hz": None, **overrides})
 
     def __post_init__(self) -> None:
@@ -95,6 +98,10 @@ class SimulationSettings:
         positive(self.tau_in, "tau_in", unit="s")
         positive(self.omega_n, "omega_n", unit="rad/s")
         positive(self.zeta, "zeta")
+        if self.omega_n * self.tau_in >= 1.0:
+            raise InvalidParameterError(
+                "omega_n", self.omega_n, f"(0, 1/tau_in) = (0, {1.0 / self.tau_in:g}) rad/s (Section 6.3)"
+            )
         if self.tau_forward is not None:
             positive(self.tau_forward, "tau_forward", unit="s")
         one_of(self.feedforward, "feedforward", FEEDFORWARD_KINDS)
@@ -106,9 +113,16 @@ class SimulationSettings:
         one_of(self.linearize_at, "linearize_at", LINEARIZE_AT)
         one_of(self.branch_prior, "branch_prior", BRANCH_PRIORS)
         positive(self.model_inertia_scale, "model_inertia_scale")
-        non_negative(self.record_every, "record_every")
-        if int(self.record_every) != self.record_every or self.record_every < 1:
-            raise InvalidParameterError("record_every", self.record_every, "an integer >= 1")
+        for flag in ("saturate", "estimate_from_image"):
+            if not isinstance(getattr(self, flag), (bool, np.bool_)):
+                raise InvalidParameterError(flag, getattr(self, flag), "True or False")
+        record_every = self.record_every
+        if (
+            isinstance(record_every, bool)
+            or not isinstance(record_every, (int, np.integer))
+            or record_every < 1
+        ):
+            raise InvalidParameterError("record_every", record_every, "an integer >= 1")
 
     @property
     def dt(self) -> float:

@@ -35,6 +35,7 @@ from ..exceptions import (
     InvalidParameterError,
     PointBehindCameraError,
     SimulationDivergedError,
+    UnreachablePoseError,
 )
 from ..model.arm import Arm
 from ..model.camera import StereoCamera
@@ -69,28 +70,42 @@ def simulate(
             estimated from the image (Eq. (62)); False evaluates J once
             (``settings.linearize_at``).
         duration: Simulated time [s].
-        settings: Rates, gains and options; default the paper's.
+        settings: Rates, gains and options; default ``SimulationSettings()``: the paper's
+            gains, joint loop at 1 kHz, camera at 100 Hz. ``SimulationSettings.paper()``
+            runs the camera at the joint rate, as the reproduction does.
         arm: The plant's arm; default ``Arm.irb4600()``.
-        camera: The stereo camera; default ``StereoCamera.zed2()`` (paper preset).
+        camera: The stereo camera; default ``StereoCamera.zed2(mode="VGA")``: the paper's
+            optics (Table A3) in the ZED 2 mode whose frame rate reaches 100 Hz.
         progress: Show a progress bar (tqdm) on stderr.
 
     Returns:
-        The result, ``metadata["status"]`` is ``"complete"``, or ``"markers_lost"`` when a
-        physical (non-virtual) marker left the camera's half-space and the run stopped.
+        The result. ``metadata["status"]`` is ``"complete"``; ``"markers_lost"`` when a
+        physical (non-virtual) marker went behind the camera; or ``"estimate_failed"`` when
+        no IK branch within the joint limits reaches the camera pose seen in the image
+        (Eq. (62); e.g. the paper's feedforward swung a joint past its limit, which the
+        plant, having no hard stops, allows). The run stops there and
+        ``metadata["error"]`` says when and why.
 
     Raises:
-        InvalidParameterError: unknown controller, non-positive duration.
+        InvalidParameterError: unknown controller, non-positive duration, or a scenario,
+            settings, arm or camera of the wrong type.
         JointLimitError: the scenario's configurations are outside the arm's limits.
         SimulationDivergedError: a state left its bounds; ``error.partial`` holds the
             samples recorded until then.
     """
     one_of(controller, "controller", CONTROLLERS)
     duration = positive(duration, "duration", unit="s")
-    if not isinstance(scenario, Scenario):
-        raise InvalidParameterError("scenario", type(scenario).__name__, "a Scenario")
+    for name, value, kind in (
+        ("scenario", scenario, Scenario),
+        ("settings", settings, SimulationSettings),
+        ("arm", arm, Arm),
+        ("camera", camera, StereoCamera),
+    ):
+        if not (isinstance(value, kind) or (value is None and name != "scenario")):
+            raise InvalidParameterError(name, type(value).__name__, f"a {kind.__name__}")
     settings = SimulationSettings() if settings is None else settings
     arm = Arm.irb4600() if arm is None else arm
-    camera = StereoCamera.zed2() if camera is None else camera
+    camera = StereoCamera.zed2(mode="VGA") if camera is None else camera
     scenario.validate_for(arm)
     return _Run(scenario, controller, bool(adaptive), duration, settings, arm, camera).run(progress)
 
@@ -204,7 +219,7 @@ class _Run:
         P_C = eye.points_in_camera_at_pose(T_O_C)
         p = camera._project_flat(P_C, eye.virtual_points)
         self.p_measured = p
-        self.visible = camera._all_visible(P_C)
+        self.visible = camera._visible_each(P_C)
         tic = time.perf_counter()
         e = self.p_target - p
         if self.adaptive:
@@ -259,6 +274,9 @@ class _Run:
                 except (PointBehindCameraError, InvalidDisparityError) as err:
                     self._stop_reason = f"t = {k * dt:.6g} s: {err}"
                     return "markers_lost"
+                except UnreachablePoseError as err:
+                    self._stop_reason = f"t = {k * dt:.6g} s: Eq. (62) failed: {err}"
+                    return "estimate_failed"
             if ff is not None:
                 q_ff = ff.step()
             q_ref = q_ff + q_fb

@@ -152,7 +152,8 @@ def test_validation_errors():
     with pytest.raises(InvalidParameterError, match="continuous"):
         DiscreteFilter.from_tf(ct.tf([1.0], [1.0, 0.5], 0.1), DT, 1)
     with pytest.raises(InvalidParameterError, match="SISO"):
-        DiscreteFilter.from_tf(ct.rss(2, 2, 2), DT, 1)
+        mimo = ct.ss([[-1.0, 0.0], [0.0, -2.0]], np.eye(2), np.eye(2), np.zeros((2, 2)))  # fixed 2x2 plant
+        DiscreteFilter.from_tf(mimo, DT, 1)
     filt = DiscreteFilter.from_tf(G, DT, 6)
     with pytest.raises(InvalidArrayError, match=r"shape \(6,\)"):
         filt.step(np.zeros(5))

@@ -12,6 +12,7 @@ from ibvs_youla import scenarios
 from ibvs_youla.config import RunConfig, load_config, parse_config
 from ibvs_youla.exceptions import ConfigError, IbvsYoulaError
 from ibvs_youla.simulation.settings import SimulationSettings
+from ibvs_youla.simulation.simulate import default_camera
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
@@ -23,7 +24,9 @@ def test_empty_document_gives_the_paper_defaults():
     assert cfg.scenario is None
     assert cfg.settings == SimulationSettings()
     assert (cfg.controller, cfg.adaptive, cfg.duration) == (None, None, None)
-    assert cfg.make_camera() == cfg.make_camera().zed2()
+    # no [camera]: simulate()'s default, the paper's optics in the 100 fps VGA mode
+    assert cfg.make_camera() == default_camera()
+    assert cfg.make_camera().frame_rate == 100.0
 
 
 def test_preset_with_overrides_in_degrees():

@@ -295,7 +295,7 @@ def _cmd_reproduce(args: argparse.Namespace, extra: list[str]) -> int:
 def _resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any]:
     """Scenario, simulate() keyword arguments, arm and camera from --scenario/--config/flags."""
     from .model.arm import Arm
-    from .model.camera import StereoCamera
+    from .simulation.simulate import default_camera
 
     cfg = _config(args.config)
     if args.scenario is not None:
@@ -321,7 +321,7 @@ def _resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, An
         "settings": None if cfg is None else cfg.settings,
     }
     arm = Arm.irb4600() if cfg is None else cfg.make_arm()
-    camera = StereoCamera.zed2() if cfg is None else cfg.make_camera()
+    camera = default_camera() if cfg is None else cfg.make_camera()
     return scenario, kwargs, arm, camera
 
 
@@ -395,9 +395,9 @@ def _cmd_view(args: argparse.Namespace, extra: list[str]) -> int:
         from .viz import Viewer
     except ImportError as err:
         raise _ViewUnavailable(err) from None
-    from .model.camera import StereoCamera
     from .scenarios import Scenario
     from .simulation.results import SimulationResult
+    from .simulation.simulate import default_camera
 
     if args.result is not None:
         if args.scenario or args.config:
@@ -412,7 +412,7 @@ def _cmd_view(args: argparse.Namespace, extra: list[str]) -> int:
             name=m["scenario"],
             virtual_points=m["virtual_points"],
         )
-        arm, camera = None, StereoCamera.zed2()
+        arm, camera = None, default_camera()
     else:
         from .simulation.simulate import simulate
 

@@ -255,11 +255,11 @@ class RunConfig:
     source: str = "<dict>"
 
     def make_camera(self) -> StereoCamera:
-        """The stereo camera of ``[camera]`` (default: the paper's ZED 2 preset)."""
-        from .model.camera import StereoCamera
+        """The stereo camera of ``[camera]`` (default: ``simulate``'s, the paper's ZED 2 in VGA mode)."""
+        from .simulation.simulate import default_camera
 
         try:
-            return StereoCamera.zed2(**self.camera_options)
+            return default_camera(**self.camera_options)
         except InvalidParameterError as err:  # e.g. a frame rate the mode does not offer
             raise _rename(err, "camera") from None
 

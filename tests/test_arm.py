@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import astuple
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -9,6 +11,7 @@ import pytest
 from ibvs_youla.exceptions import InvalidArrayError, InvalidParameterError, ModelLoadError
 from ibvs_youla.model._resources import example_robot_data_urdf, urdf_path
 from ibvs_youla.model.arm import ActuatorParameters, Arm
+from ibvs_youla.model.ik import SphericalWristParameters
 
 SEED = 4600
 
@@ -210,7 +213,8 @@ def test_callers_model_is_not_mutated():
     arm = Arm(model, armature=np.ones(6), damping=np.ones(6))
     np.testing.assert_allclose(model.armature, 0.0)
     np.testing.assert_allclose(arm.model.armature, 1.0)
-    assert arm.ik_parameters is not None  # closed form detected on the bare model too
+    # closed form detected on the bare model too, with ERRATA 1's geometry (a3 carries ~4e-17 m round-off)
+    assert astuple(arm.ik_parameters) == pytest.approx(astuple(SphericalWristParameters.irb4600()), abs=1e-12)
     with pytest.raises(InvalidArrayError):
         Arm(model, armature=-np.ones(6))
 
@@ -223,3 +227,74 @@ def test_ur5_loads_from_example_robot_data():
     J = ur5.camera_jacobian(q)
     assert np.linalg.norm(J - _fd_local_jacobian(ur5, q)) <= 1e-6 * np.linalg.norm(J)
     np.testing.assert_allclose(ur5.camera_pose(q), ur5.flange_pose(q) @ ur5.T_E_C, atol=1e-12)
+
+
+# ----------------------------------------------------------------------------------------- URDF checks
+def six_joint_urdf(tmp_path, *, joint3="revolute", lower="-1", upper="1", velocity="1", effort="1"):
+    """A six-joint serial chain (link_0 .. link_6); joint 3 takes the type and limits given."""
+    links = "".join(f'<link name="link_{i}"/>' for i in range(7))
+    joints = []
+    for i in range(1, 7):
+        kind, limit = "revolute", '<limit lower="-1" upper="1" velocity="1" effort="1"/>'
+        if i == 3:
+            kind = joint3
+            limit = f'<limit lower="{lower}" upper="{upper}" velocity="{velocity}" effort="{effort}"/>'
+        joints.append(f'<joint name="j{i}" type="{kind}"><parent link="link_{i - 1}"/>'
+                      f'<child link="link_{i}"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/>{limit}</joint>')
+    path = tmp_path / "six.urdf"
+    path.write_text(f'<robot name="six">{links}{"".join(joints)}</robot>')
+    return path
+
+
+def test_six_joint_urdf_helper_loads_when_valid(tmp_path):
+    arm = Arm.from_urdf(six_joint_urdf(tmp_path), camera_frame="link_6")
+    assert arm.nq == 6 and arm.q_min.tolist() == [-1.0] * 6  # the error cases below differ in one tag only
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"joint3": "prismatic"}, r"joint 'j3' \(JointModelPZ\) is not a bounded revolute joint"),
+        ({"lower": "1", "upper": "-1"}, "joint position limits must be finite with lower < upper"),
+        ({"lower": "0.5", "upper": "0.5"}, "joint position limits must be finite with lower < upper"),
+        ({"velocity": "0"}, r"joint velocity and effort limits must be > 0"),
+        ({"effort": "0"}, r"joint velocity and effort limits must be > 0"),
+    ],
+)
+def test_a_joint_that_is_not_a_bounded_revolute_is_rejected(tmp_path, changes, message):
+    path = six_joint_urdf(tmp_path, **changes)
+    with pytest.raises(ModelLoadError, match=message) as info:
+        Arm.from_urdf(path, camera_frame="link_6")
+    assert info.value.path == path
+
+
+def test_non_finite_limits_are_rejected(tmp_path):
+    """A URDF cannot spell an infinite limit that Pinocchio parses, so the model is edited directly."""
+    model = pin.buildModelFromUrdf(str(six_joint_urdf(tmp_path)))
+    model.upperPositionLimit[2] = np.inf
+    with pytest.raises(ModelLoadError, match=r"joint position limits must be finite with lower < upper.*inf"):
+        Arm(model, camera_frame="link_6")
+
+
+def test_missing_resources_are_named(tmp_path):
+    shipped = r"'nope\.urdf' is not among the URDFs shipped in ibvs_youla\.urdf"
+    with pytest.raises(ModelLoadError, match=shipped):
+        urdf_path("nope.urdf")
+    missing = r"example-robot-data URDF 'nope/none\.urdf' not found; looked in \['/"
+    with pytest.raises(ModelLoadError, match=missing):
+        example_robot_data_urdf("nope/none.urdf")
+
+
+def test_irb4600_checks_its_urdf_against_errata_1(tmp_path, monkeypatch):
+    """A shipped URDF whose wrist offset d4 is not ERRATA 1's 0.960 m is refused, not silently used."""
+    import ibvs_youla.model.arm as arm_module
+
+    text = urdf_path("abb_irb4600_45_205.urdf").read_text()
+    assert text.count('<origin xyz="0 0 0.96" ') == 1
+    edited = tmp_path / "abb_irb4600_45_205.urdf"
+    edited.write_text(text.replace('<origin xyz="0 0 0.96" ', '<origin xyz="0 0 0.97" '))
+    monkeypatch.setattr(arm_module, "urdf_path", lambda name: edited)
+    message = r"URDF geometry .*d4=0\.97.* differs from ERRATA 1 .*d4=0\.96"
+    with pytest.raises(ModelLoadError, match=message) as info:
+        Arm.irb4600()
+    assert info.value.path == edited

@@ -11,6 +11,7 @@ import pytest
 from ibvs_youla import scenarios
 from ibvs_youla.config import RunConfig, load_config, parse_config
 from ibvs_youla.exceptions import ConfigError, IbvsYoulaError
+from ibvs_youla.model.camera import StereoCamera
 from ibvs_youla.simulation.settings import SimulationSettings
 from ibvs_youla.simulation.simulate import default_camera
 
@@ -26,6 +27,8 @@ def test_empty_document_gives_the_paper_defaults():
     assert (cfg.controller, cfg.adaptive, cfg.duration) == (None, None, None)
     # no [camera]: simulate()'s default, the paper's optics in the 100 fps VGA mode
     assert cfg.make_camera() == default_camera()
+    # spelled out, not built from the code under test: the paper preset's optics in the VGA mode
+    assert cfg.make_camera() == StereoCamera.zed2("paper", "VGA") != StereoCamera.zed2()
     assert cfg.make_camera().frame_rate == 100.0
 
 

@@ -225,7 +225,7 @@ class _Run:
         eye = self.eye
         camera = eye.camera
         self.T_O_C = T_O_C = self.plant._camera_pose()
-        P_C = eye.points_in_camera_at_pose(T_O_C)
+        P_C = eye._points_in_camera_at_pose(T_O_C)
         p = camera._project_flat(P_C, eye.virtual_points)
         self.p_measured = p
         self.visible = camera._visible_each(P_C)

@@ -124,10 +124,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             run.plant._set_state(states[id(q_true)])
             eye, camera = run.eye, run.eye.camera
             t = [perf_counter()]
-            P_C = eye.points_in_camera_at_pose(run.plant._camera_pose())
+            P_C = eye._points_in_camera_at_pose(run.plant._camera_pose())
             p_meas = camera._project_flat(P_C, eye.virtual_points)
             t.append(perf_counter())
-            camera._all_visible(P_C)
+            camera._visible_each(P_C)
             t.append(perf_counter())
             q_hat = eye._estimate_q(p_meas, q_enc)
             t.append(perf_counter())

@@ -64,7 +64,9 @@ def test_reached_at_is_when_the_error_enters_tolerance_for_good():
     t = np.linspace(0.0, 10.0, 1001)
     norm = 1e-3 * np.exp(-2.0 * t)
     outcome = classify(_result(norm))
-    # max per-coordinate error is norm / 3; it stays <= 1e-7 from t = ln(1e-3 / 3e-7) / 2 on
+    # max per-coordinate error is norm / 3; it stays <= 1e-7 from t = ln(1e-3 / 3e-7) / 2 on,
+    # so the verdict names the first sample at or after that instant
     t_cross = np.log(1e-3 / 3e-7) / 2.0
-    assert outcome.reached_at_s == pytest.approx(t_cross, abs=0.011)
+    assert outcome.reached_at_s == t[np.searchsorted(t, t_cross)]
+    assert 0.0 <= outcome.reached_at_s - t_cross < t[1] - t[0]
     assert classify(_result(np.full(1001, 1e-4))).reached_at_s == np.inf

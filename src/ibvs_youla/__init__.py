@@ -35,7 +35,7 @@ _LAZY: dict[str, str] = {
     "InnerLoopDesign": ".control.inner",
     "FeedforwardDesign": ".control.feedforward",
     "OuterLoopDesign": ".control.outer",
-    "SingularValuePolicy": ".control.outer",
+    "SingularValuePolicy": ".control.singular_values",
     # simulation
     "Scenario": ".scenarios",
     "simulate": ".simulation.simulate",
@@ -90,7 +90,8 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from . import scenarios
     from .control.feedforward import FeedforwardDesign
     from .control.inner import InnerLoopDesign
-    from .control.outer import OuterLoopDesign, SingularValuePolicy
+    from .control.outer import OuterLoopDesign
+    from .control.singular_values import SingularValuePolicy
     from .estimation.eye_in_hand import EyeInHand
     from .estimation.hand_eye import calibrate_hand_eye
     from .estimation.stereo_pose import rigid_transform_from_points

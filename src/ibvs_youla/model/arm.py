@@ -6,9 +6,9 @@ the flange {E} and the camera {C} (docs/conventions.md). Dynamics follow Eq. (29
     (D(q) + J) ddq + (C(q, dq) + B / r) dq + g(q) = u
 
 The actuator terms J (armature) and B / r (viscous damping) come from Table A4 through
-:class:`ActuatorParameters`. Pinocchio's CRBA, RNEA and ABA include ``model.armature``;
-they ignore ``model.damping``, which is therefore left at zero and the damping torque
-``damping * dq`` is added here.
+:class:`ActuatorParameters` (:mod:`ibvs_youla.model.actuators`, re-exported here).
+Pinocchio's CRBA, RNEA and ABA include ``model.armature``; they ignore ``model.damping``,
+which is therefore left at zero and the damping torque ``damping * dq`` is added here.
 
 Hot-path methods (poses, Jacobians, dynamics) validate their inputs cheaply: a float64
 array of the right shape whose entries are finite passes straight through; anything
@@ -21,16 +21,17 @@ which skip even that check: their callers own arrays that are valid by construct
 from __future__ import annotations
 
 import math
-from dataclasses import astuple, dataclass
+from dataclasses import astuple
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
-from .._validation import as_array, as_pose, non_negative, one_of, positive
+from .._validation import as_array, as_pose, non_negative, positive
 from ..exceptions import InvalidArrayError, ModelLoadError, UnreachablePoseError
 from ._resources import check_chain, frame_id, load_urdf_model, urdf_path
+from .actuators import ActuatorParameters
 from .ik import (
     SphericalWristParameters,
     closed_form_branches,
@@ -44,42 +45,6 @@ __all__ = ["ActuatorParameters", "Arm"]
 _N = 6
 _IK_TOL = 1e-9  # max |FK(q) - T| accepted for an IK solution (rotation entries and metres)
 _IK_SEEDS = 24  # random seeds of the numerical IK (besides q_near)
-
-
-@dataclass(frozen=True)
-class ActuatorParameters:
-    """Motor and gear of Table A4, and their joint-side terms in Eq. (29).
-
-    Attributes:
-        J_a: Motor armature inertia [kg m^2].
-        J_g: Gear inertia [kg m^2].
-        r: Gear ratio [-].
-        B_m: Motor viscous damping [N m s/rad].
-    """
-
-    J_a: float = 0.09847
-    J_g: float = 0.05
-    r: float = 200.0
-    B_m: float = 0.06
-
-    def __post_init__(self) -> None:
-        positive(self.r, "r")
-        for name in ("J_a", "J_g", "B_m"):
-            non_negative(getattr(self, name), name)
-
-    def joint_terms(self, mapping: str = "paper") -> tuple[float, float]:
-        """(armature [kg m^2], damping [N m s/rad]) seen at each joint.
-
-        ``"paper"`` reads Eq. (29) literally: J = J_a + J_g added to D(q), damping B / r
-        with B = B_m. ``"reflected"`` refers motor-side terms through the gear
-        (Spong, Hutchinson & Vidyasagar, independent joint control): r^2 (J_a + J_g) and
-        r^2 B_m. With Table A4 the two differ by r^3 = 8e6 in damping and r^2 = 4e4 in
-        armature (0.148 vs 5939 kg m^2, the latter dwarfing the link inertias).
-        """
-        one_of(mapping, "actuator", ("paper", "reflected"))
-        if mapping == "paper":
-            return self.J_a + self.J_g, self.B_m / self.r
-        return self.r**2 * (self.J_a + self.J_g), self.r**2 * self.B_m
 
 
 def _read_only(x: Any) -> np.ndarray:

@@ -13,6 +13,7 @@ import pytest
 
 import ibvs_youla as iy
 from ibvs_youla import cli
+from ibvs_youla.cli import bench as cli_bench
 from ibvs_youla.exceptions import SimulationDivergedError
 from ibvs_youla.simulation.results import SimulationResult
 
@@ -330,13 +331,13 @@ def test_view_without_the_viewer_is_one_line(capsys, monkeypatch):
 
 # ----------------------------------------------------------------------------- bench
 def test_bench_looks_in_the_repository_benchmarks_folder():
-    assert cli._benchmarks_dir() == ROOT / "benchmarks"  # editable install: src/ibvs_youla -> repo root
+    assert cli_bench._benchmarks_dir() == ROOT / "benchmarks"  # editable install: src/ibvs_youla -> repo root
 
 
 def test_bench_runs_each_script_with_json_and_extra_arguments(capsys, tmp_path, monkeypatch):
     folder = tmp_path / "benchmarks"
     folder.mkdir()
-    for name in cli.BENCHMARKS.values():
+    for name in cli_bench.BENCHMARKS.values():
         (folder / f"{name}.py").write_text(
             "import json, sys\n"
             "def main(argv):\n"
@@ -344,7 +345,7 @@ def test_bench_runs_each_script_with_json_and_extra_arguments(capsys, tmp_path, 
             f"    open(path, 'w').write(json.dumps({{'name': '{name}', 'argv': argv}}))\n"
             "    return 0\n"
         )
-    monkeypatch.setattr(cli, "_benchmarks_dir", lambda: folder)
+    monkeypatch.setattr(cli_bench, "_benchmarks_dir", lambda: folder)
     code, out, _ = run(capsys, "bench", "--json", str(tmp_path / "reports"), "--", "--repeats", "1")
     assert code == 0 and out.count("== bench_") == 2
     report = json.loads((tmp_path / "reports" / "bench_simulation.json").read_text())
@@ -353,6 +354,6 @@ def test_bench_runs_each_script_with_json_and_extra_arguments(capsys, tmp_path, 
 
 
 def test_bench_without_benchmarks_is_one_line(capsys, tmp_path, monkeypatch):
-    monkeypatch.setattr(cli, "_benchmarks_dir", lambda: tmp_path / "nowhere")
+    monkeypatch.setattr(cli_bench, "_benchmarks_dir", lambda: tmp_path / "nowhere")
     code, _, err = run(capsys, "bench", "outer")
     assert code == 1 and "bench_outer_loop.py" in one_error_line(err)

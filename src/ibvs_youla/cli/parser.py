@@ -1,0 +1,188 @@
+"""The argument definitions of ``ibvs-youla`` and its five subcommands."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import NoReturn
+
+from .. import __version__
+from .. import scenarios as _scenarios
+from . import bench, design, reproduce, simulate, view
+from .base import PROG, UsageError
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value > 0.0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"received {text!r}; valid values are finite numbers > 0")
+    return value
+
+
+def _non_negative(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not value >= 0.0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"received {text!r}; valid values are finite numbers >= 0")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The parser of the whole command line; each subcommand sets ``func(args, extra) -> int``."""
+    parser = _Parser(
+        prog=PROG,
+        description="Stereo IBVS with feedforward and adaptive Youla control (Li & Assadian): "
+        "reproduce the paper, simulate a scenario, inspect the controller designs, view a run, "
+        "benchmark. Errors print one line and exit with 2 (bad arguments) or 1.",
+    )
+    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    names = ", ".join(_scenarios.NAMES)
+
+    p = sub.add_parser(
+        "reproduce",
+        help="rerun the paper's Section 7: runs, Figures 13-16, table",
+        description="rerun the paper's Section 7: runs, Figures 13-16, table",
+    )
+    p.add_argument(
+        "--out", type=Path, metavar="DIR", default=Path("results"), help="output folder (default: results)"
+    )
+    p.add_argument(
+        "--scenarios",
+        nargs="+",
+        choices=_scenarios.NAMES,
+        metavar="NAME",
+        help=f"scenarios to run, from {names} (default: the paper's two and their physical twins)",
+    )
+    p.add_argument("--duration", type=_positive, metavar="S", help="simulated time per run [s] (default 20)")
+    p.add_argument(
+        "--diagnosis-duration",
+        type=_non_negative,
+        metavar="S",
+        default=120.0,
+        help="longer horizon [s] for runs that have not reached the target; 0 skips (default 120)",
+    )
+    p.add_argument(
+        "--config",
+        type=Path,
+        metavar="FILE",
+        help="TOML file whose [settings] (over the paper's, unless it names a preset) and [run] "
+        "duration apply",
+    )
+    p.add_argument("--no-resume", action="store_true", help="simulate again even if runs are saved in --out")
+    p.set_defaults(func=reproduce.run)
+
+    p = sub.add_parser(
+        "simulate",
+        help="simulate one scenario; write the result, figures and a summary",
+        description="simulate one scenario; write the result, figures and a summary",
+    )
+    _add_run_options(p, names)
+    p.add_argument(
+        "--out",
+        type=Path,
+        metavar="DIR",
+        help="output folder (default: results/<scenario>_<controller>_<loop>)",
+    )
+    p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.set_defaults(func=simulate.run)
+
+    p = sub.add_parser(
+        "design",
+        help="print (and plot) the inner, feedforward and outer designs",
+        description="print (and plot) the inner, feedforward and outer designs",
+    )
+    p.add_argument(
+        "which", nargs="?", default="all", choices=design.DESIGNS, help="design to show (default: all)"
+    )
+    p.add_argument(
+        "--tau-in", type=_positive, metavar="S", help="inner-loop time constant [s] (default 0.01)"
+    )
+    p.add_argument(
+        "--omega-n", type=_positive, metavar="RAD_S", help="outer-loop natural frequency [rad/s] (default 10)"
+    )
+    p.add_argument("--zeta", type=_positive, metavar="ZETA", help="outer-loop damping ratio (default 10)")
+    p.add_argument(
+        "--tau-forward",
+        type=_positive,
+        metavar="S",
+        help="feedforward time constant [s] (default 0.1 tau_in)",
+    )
+    p.add_argument("--config", type=Path, metavar="FILE", help="TOML file whose [settings] give the defaults")
+    p.add_argument("--plot", action="store_true", help="write Bode, step and pole-zero figures to --out")
+    p.add_argument(
+        "--out",
+        type=Path,
+        metavar="DIR",
+        default=Path("results/design"),
+        help="figure folder (default: results/design)",
+    )
+    p.set_defaults(func=design.run)
+
+    p = sub.add_parser(
+        "view",
+        help="play a run in the Meshcat 3-D viewer",
+        description="play a run in the Meshcat 3-D viewer",
+    )
+    _add_run_options(p, names)
+    p.add_argument(
+        "--result", type=Path, metavar="FILE", help="play a saved result (.npz) instead of simulating"
+    )
+    p.add_argument(
+        "--speed", type=_positive, metavar="X", default=1.0, help="playback speed factor (default 1)"
+    )
+    p.add_argument(
+        "--fps", type=_positive, metavar="HZ", default=30.0, help="playback frame rate (default 30)"
+    )
+    p.add_argument("--zmq-url", help="connect to a running meshcat-server instead of starting one")
+    p.add_argument("--open", action="store_true", help="open the viewer in a web browser")
+    p.add_argument(
+        "--no-wait", action="store_true", help="exit after playing instead of serving until Ctrl-C"
+    )
+    p.set_defaults(func=view.run)
+
+    p = sub.add_parser(
+        "bench",
+        help="run the benchmarks in benchmarks/; arguments after -- are passed on to them",
+        description="run the benchmarks in benchmarks/; arguments after -- are passed on to them, "
+        "e.g. ibvs-youla bench simulation --json out -- --duration 1 --repeats 1",
+    )
+    p.add_argument("which", nargs="?", default="all", choices=(*bench.BENCHMARKS, "all"), help="default: all")
+    p.add_argument("--json", type=Path, metavar="DIR", help="write <benchmark>.json reports here")
+    p.set_defaults(func=bench.run)
+    return parser
+
+
+def _add_run_options(p: argparse.ArgumentParser, names: str) -> None:
+    p.add_argument("--scenario", choices=_scenarios.NAMES, metavar="NAME", help=f"one of {names}")
+    p.add_argument(
+        "--config",
+        type=Path,
+        metavar="FILE",
+        help="TOML file with [scenario], [settings], [run], [camera], [arm] (see examples/)",
+    )
+    p.add_argument(
+        "--controller",
+        choices=("fb", "ff+fb"),
+        help="feedback only or feedforward + feedback (default ff+fb)",
+    )
+    loop = p.add_mutually_exclusive_group()
+    loop.add_argument(
+        "--fixed",
+        dest="adaptive",
+        action="store_false",
+        default=None,
+        help="evaluate the image Jacobian once (default: adaptive)",
+    )
+    loop.add_argument("--adaptive", dest="adaptive", action="store_true", help="re-linearize every frame")
+    p.add_argument("--duration", type=_positive, metavar="S", help="simulated time [s] (default 10)")

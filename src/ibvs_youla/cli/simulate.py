@@ -1,0 +1,116 @@
+"""``ibvs-youla simulate``: run one scenario; write the result, its figures and a summary.
+
+:func:`resolve_run` (scenario, arm, camera and ``simulate()`` options from ``--scenario``,
+``--config`` and the flags) is shared with ``view``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from .. import scenarios as _scenarios
+from ..exceptions import SimulationDivergedError
+from .base import PROG, UsageError, load_optional_config, one_line
+
+
+def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any]:
+    """Scenario, simulate() keyword arguments, arm and camera from --scenario/--config/flags."""
+    from ..model.arm import Arm
+    from ..simulation.simulate import default_camera
+
+    cfg = load_optional_config(args.config)
+    if args.scenario is not None:
+        scenario = _scenarios.get(args.scenario)
+    elif cfg is not None and cfg.scenario is not None:
+        scenario = cfg.scenario
+    else:
+        raise UsageError(
+            f"{args.command}: give --scenario NAME ({', '.join(_scenarios.NAMES)}) "
+            "or --config FILE with a [scenario] table"
+        )
+
+    def pick(flag: Any, key: str, default: Any) -> Any:
+        if flag is not None:
+            return flag
+        value = None if cfg is None else getattr(cfg, key)
+        return default if value is None else value
+
+    kwargs = {
+        "controller": pick(args.controller, "controller", "ff+fb"),
+        "adaptive": pick(args.adaptive, "adaptive", True),
+        "duration": pick(args.duration, "duration", 10.0),
+        "settings": None if cfg is None else cfg.settings,
+    }
+    arm = Arm.irb4600() if cfg is None else cfg.make_arm()
+    camera = default_camera() if cfg is None else cfg.make_camera()
+    return scenario, kwargs, arm, camera
+
+
+def run(args: argparse.Namespace, extra: list[str]) -> int:
+    """Simulate one scenario, write result.npz, summary.json and figures; return the exit code."""
+    from ..simulation.simulate import simulate
+
+    scenario, kwargs, arm, camera = resolve_run(args)
+    loop = "adaptive" if kwargs["adaptive"] else "fixed"
+    out = args.out or Path("results") / f"{scenario.name or 'custom'}_{kwargs['controller']}_{loop}"
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        result = simulate(scenario, **kwargs, arm=arm, camera=camera, progress=True)
+    except SimulationDivergedError as err:
+        where = "no samples recorded"
+        if err.partial is not None:
+            where = f"partial result saved to {err.partial.save(out / 'result_partial.npz')}"
+        print(f"{PROG}: error: simulation diverged: {one_line(err)} ({where})", file=sys.stderr)
+        return 1
+    path = result.save(out / "result.npz")
+    text, summary = _summary(result, arm)
+    (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    written = [path.name, "summary.json"]
+    if not args.no_plots:
+        from ..analysis.plots import save_result_figures
+
+        save_result_figures(result, out / "figures", arm, camera)
+        written.append("figures/*.png")
+    print(text)
+    print(f"wrote {', '.join(written)} in {out}")
+    return 0
+
+
+def _summary(result: Any, arm: Any) -> tuple[str, dict[str, Any]]:
+    """One screen of text and the JSON summary of a run."""
+    import numpy as np
+
+    from ..analysis.convergence import classify
+    from ..analysis.metrics import overshoot, settling_time, summary
+    from ..analysis.reproduce import SETTLING_ATOL_M
+
+    meta = result.metadata
+    outcome = classify(result)
+    s = summary(result, dq_max=arm.dq_max, tau_max=arm.tau_max)
+    settle = settling_time(result.t, result.features, y_final=result.feature_target, atol=SETTLING_ATOL_M)
+    over = overshoot(result.features, y_final=result.feature_target)
+    s.update(outcome=outcome.to_dict(), settling_time_s=[float(v) for v in settle])
+    speed, torque = np.asarray(s["peak_joint_speed_ratio"]), np.asarray(s["peak_torque_ratio"])
+    ratios = ", ".join(f"{v:.3g}" for v in speed)
+    loop = "adaptive" if meta.get("adaptive") else "fixed"
+    lines = [
+        f"{meta.get('scenario')}: {meta.get('controller')} with the {loop} outer loop, "
+        f"{result.duration:g} s simulated (status {meta.get('status')})",
+        f"  outcome           {outcome.kind}; max |e| per marker "
+        + ", ".join(f"{v:.2g}" for v in outcome.point_errors_m)
+        + f" m; ||e|| changed {100 * outcome.error_change:+.2g} % over the last 20 % of the run",
+        f"  final image error max |e| = {outcome.final_image_error_m:.3g} m on the sensor",
+        f"  final pose error  {outcome.position_error_mm:.3g} mm, {outcome.rotation_error_deg:.3g} deg",
+        f"  2 % settling      {np.max(settle):.3g} s (slowest of 9 coordinates; inf = not settled)",
+        f"  overshoot         {np.nanmax(over) if np.any(np.isfinite(over)) else np.nan:.3g} % (largest)",
+        f"  peak joint speed  {ratios} x limit (max {speed.max():.3g}x, joint {speed.argmax() + 1})",
+        f"  peak torque       max {torque.max():.3g}x limit (joint {torque.argmax() + 1})",
+        "  markers visible   "
+        + ", ".join(f"{100 * v:.0f} %" for v in s["visibility_fraction"])
+        + (" (virtual points, ERRATA 13)" if meta.get("virtual_points") else ""),
+    ]
+    return "\n".join(lines), s

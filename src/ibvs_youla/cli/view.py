@@ -1,0 +1,64 @@
+"""``ibvs-youla view``: play a run (simulated now or loaded from a result file) in Meshcat."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..exceptions import IbvsYoulaError
+from .base import UsageError
+from .simulate import resolve_run
+
+
+def run(args: argparse.Namespace, extra: list[str]) -> int:
+    """Play the run in the Meshcat viewer until Ctrl-C (or once with ``--no-wait``); return 0."""
+    try:
+        from ..viz import Viewer
+    except ImportError as err:
+        raise _ViewUnavailable(err) from None
+    from ..scenarios import Scenario
+    from ..simulation.results import SimulationResult
+    from ..simulation.simulate import default_camera
+
+    if args.result is not None:
+        if args.scenario or args.config:
+            raise UsageError("view: give either --result FILE or --scenario/--config, not both")
+        result = SimulationResult.load(args.result)
+        m = result.metadata
+        scenario = Scenario(
+            m["q_start"],
+            m["q_target"],
+            m["markers_O"],
+            m["joint_offset"],
+            name=m["scenario"],
+            virtual_points=m["virtual_points"],
+        )
+        arm, camera = None, default_camera()
+    else:
+        from ..simulation.simulate import simulate
+
+        scenario, kwargs, arm, camera = resolve_run(args)
+        result = simulate(scenario, **kwargs, arm=arm, camera=camera, progress=True)
+    viewer = Viewer(arm, camera, zmq_url=args.zmq_url, open_browser=args.open)
+    try:
+        print(f"playing {scenario.name or 'the run'} at {args.speed:g}x in {viewer.url}", flush=True)
+        viewer.show_scenario(scenario)
+        viewer.play(result, speed=args.speed, fps=args.fps)
+        if not args.no_wait:
+            import time
+
+            print("serving; press Ctrl-C to stop", flush=True)
+            while True:
+                time.sleep(1.0)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        viewer.close()
+    return 0
+
+
+class _ViewUnavailable(IbvsYoulaError):
+    def __init__(self, err: ImportError) -> None:
+        super().__init__(
+            f"view needs the Meshcat viewer (ibvs_youla.viz and meshcat: "
+            f"pip install 'ibvs-youla[viz]'), which cannot be imported: {err}"
+        )

@@ -25,6 +25,10 @@ Singular poses, where infinitely many solutions exist, return one documented cho
 wrist singularity (|sin q5| < 1e-10, axes 4 and 6 aligned): ``q4 = q_ref[3]`` and the
 whole rotation on q6; shoulder singularity (wrist centre within 1e-10 m of axis 1):
 ``q1 = q_ref[0]`` or ``q_ref[0] + pi``.
+
+The scalar steps above live in ``_ik_closed_form``, the nearest-branch fast path
+(:func:`nearest_branch`) in ``_ik_nearest`` and the numerical IK (:func:`numerical_branches`)
+in :mod:`ibvs_youla.model.ik_numerical`; all are importable from here.
 """
 
 from __future__ import annotations
@@ -37,6 +41,10 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import InvalidParameterError
+from ._ik_closed_form import _SINGULAR as _SINGULAR  # re-exported: the singular-pose threshold
+from ._ik_closed_form import _TWO_PI, _elbows, _shoulders, _wrist_angles
+from ._ik_nearest import nearest_branch
+from .ik_numerical import numerical_branches
 
 __all__ = [
     "SphericalWristParameters",
@@ -48,8 +56,6 @@ __all__ = [
 
 _ALPHA = (-0.5 * math.pi, 0.0, -0.5 * math.pi, 0.5 * math.pi, -0.5 * math.pi, 0.0)  # [rad]
 _THETA_OFFSET = (0.0, -0.5 * math.pi, 0.0, 0.0, 0.0, 0.0)  # [rad]
-_SINGULAR = 1e-10  # |sin q5| [-] and wrist-centre distance to axis 1 [m] treated as exactly singular
-_TWO_PI = 2.0 * math.pi
 
 
 def _dh(d: float, a: float, alpha: float, theta: float) -> np.ndarray:
@@ -147,73 +153,6 @@ class SphericalWristParameters:
         return cand
 
 
-def _wrist_angles(
-    r00: float, r02: float, r10: float, r12: float, r20: float, r21: float, r22: float, q4_ref: float
-) -> list[tuple[float, float, float]]:
-    """(q4, q5, q6) with Rz(q4) Ry(-q5) Rz(q6) = R36, from the seven entries of R36 it needs.
-
-    Two flips, or one choice when singular (module docstring).
-    """
-    m = math.hypot(r02, r12)  # |sin q5|
-    if m < _SINGULAR:
-        if r22 > 0.0:  # q5 = 0: R36 = Rz(q4 + q6)
-            return [(q4_ref, 0.0, math.atan2(r10, r00) - q4_ref)]
-        # q5 = pi: R36 = Rz(q4 - q6) diag(-1, 1, -1)
-        return [(q4_ref, math.pi, q4_ref - math.atan2(-r10, -r00))]
-    return [
-        (math.atan2(-r12, -r02), math.atan2(m, r22), math.atan2(-r21, r20)),
-        (math.atan2(r12, r02), math.atan2(-m, r22), math.atan2(r21, -r20)),
-    ]
-
-
-def _wrap1(x: float) -> float:
-    """Map one angle to (-pi, pi], with the arithmetic of :func:`_wrap` (same float result)."""
-    return math.pi - (math.pi - x) % _TWO_PI
-
-
-def _shoulders(
-    p: SphericalWristParameters, T_O_E: list[list[float]], q1_ref: float
-) -> tuple[tuple[float, float, float], tuple[float, float]]:
-    """Wrist centre (x, y, z) [m] and the two shoulder angles q1 (front, back) of a flange pose."""
-    (_, _, r02, px), (_, _, r12, py), (_, _, r22, pz) = T_O_E[0], T_O_E[1], T_O_E[2]
-    x, y, z = px - p.d6 * r02, py - p.d6 * r12, pz - p.d6 * r22  # wrist centre [m]
-    if math.hypot(x, y) < _SINGULAR:
-        return (x, y, z), (q1_ref, q1_ref + math.pi)
-    front = math.atan2(y, x)
-    return (x, y, z), (front, front - math.pi if front > 0.0 else front + math.pi)
-
-
-def _elbows(
-    p: SphericalWristParameters, T_O_E: list[list[float]], centre: tuple[float, float, float], q1: float
-) -> list[tuple[float, float, tuple[float, ...]]]:
-    """(q2, q3, R36) of each elbow solution for shoulder angle q1 (none if out of reach).
-
-    R36 = R_O_3^T R_O_E as the seven entries `_wrist_angles` reads (r00, r02, r10, r12, r20,
-    r21, r22). Angles unwrapped.
-    """
-    (r00, r01, r02, _), (r10, r11, r12, _), (r20, r21, r22, _) = T_O_E[0], T_O_E[1], T_O_E[2]
-    x, y, z = centre
-    L, beta, two_a2_L = p._elbow_constants
-    c1, s1 = math.cos(q1), math.sin(q1)
-    r, s = x * c1 + y * s1 - p.a1, z - p.d1  # joint 2 -> wrist centre, radial and vertical [m]
-    cos_g = (r * r + s * s - p.a2**2 - L * L) / two_a2_L
-    if abs(cos_g) > 1.0 + 1e-12:
-        return []
-    gamma0 = math.acos(min(1.0, max(-1.0, cos_g)))
-    # R_O_E rows projected for R_O_3 = [[sp c1, s1, cp c1], [sp s1, -c1, cp s1], [cp, 0, -sp]]
-    a0, a1, a2 = c1 * r00 + s1 * r10, c1 * r01 + s1 * r11, c1 * r02 + s1 * r12
-    b0, b2 = s1 * r00 - c1 * r10, s1 * r02 - c1 * r12
-    out = []
-    for gamma in (gamma0, -gamma0) if gamma0 > 0.0 else (gamma0,):
-        q3 = gamma - beta
-        q2 = math.atan2(r, s) - math.atan2(L * math.sin(gamma), p.a2 + L * math.cos(gamma))
-        sp, cp = math.sin(q2 + q3), math.cos(q2 + q3)
-        R36 = (sp * a0 + cp * r20, sp * a2 + cp * r22, b0, b2,
-               cp * a0 - sp * r20, cp * a1 - sp * r21, cp * a2 - sp * r22)
-        out.append((q2, q3, R36))
-    return out
-
-
 def closed_form_branches(
     params: SphericalWristParameters, T_O_E: np.ndarray, q_ref: np.ndarray
 ) -> np.ndarray:
@@ -239,84 +178,6 @@ def closed_form_branches(
         for wrist in _wrist_angles(*R36, q4_ref)
     ]
     return _wrap(np.array(rows, dtype=float).reshape(-1, 6))
-
-
-def nearest_branch(
-    params: SphericalWristParameters,
-    T_O_E: np.ndarray,
-    q_min: list[float],
-    q_max: list[float],
-    q_near: list[float],
-    *,
-    tol: float = 1e-9,
-) -> list[float] | None:
-    """First row of ``select_branches(closed_form_branches(...), q_min, q_max, q_near)``, or None.
-
-    The same rules in scalar arithmetic, without building every branch (the configuration
-    estimate of Eq. (62) runs at every camera frame): each joint is moved to its
-    2*pi-equivalent within limits nearest ``q_near``, branches with a joint outside the
-    limits are dropped, and the nearest in Euclidean distance wins, the first in branch
-    order on a tie. The shoulder nearer ``q_near`` is visited first, and a branch is given
-    up (before its elbow and wrist are solved) as soon as its partial distance exceeds the
-    best one's. Unvalidated: ``T_O_E`` a rigid (4, 4) pose, the rest lists of 6 floats [rad].
-    """
-    bounds = [
-        (lo, hi, lo - tol, hi + tol, lo if qn < lo else hi if qn > hi else qn, qn)
-        for lo, hi, qn in zip(q_min, q_max, q_near, strict=True)
-    ]
-    M = T_O_E.tolist()
-    centre, shoulders = _shoulders(params, M, q_near[0])
-    order = (0, 1) if abs(_wrap1(shoulders[0] - q_near[0])) <= 0.5 * math.pi else (1, 0)
-    best, best_key = None, (math.inf, 0, 0, 0)
-    q4_ref = q_near[3]
-    for i in order:  # the shoulder nearer q_near first: the other one is then given up early
-        q_1 = _nearest_equivalents((shoulders[i],), bounds[:1], 0.0, best_key[0])
-        if q_1 is None:
-            continue
-        for j, (q2, q3, R36) in enumerate(_elbows(params, M, centre, shoulders[i])):
-            q_23 = _nearest_equivalents((q2, q3), bounds[1:3], q_1[1], best_key[0])
-            if q_23 is None:
-                continue
-            for k, wrist in enumerate(_wrist_angles(*R36, q4_ref)):
-                q_456 = _nearest_equivalents(wrist, bounds[3:], q_23[2], best_key[0])
-                if q_456 is not None and (q_456[3], i, j, k) < best_key:
-                    best, best_key = [q_1[0], q_23[0], q_23[1], *q_456[:3]], (q_456[3], i, j, k)
-    return best
-
-
-def _nearest_equivalents(
-    angles: tuple[float, ...], bounds: list[tuple[float, ...]], d2: float, give_up: float
-) -> list[float] | None:
-    """Each angle's 2*pi-equivalent within limits nearest q_near (`select_branches`' rule).
-
-    ``bounds`` holds (lo, hi, lo - tol, hi + tol, anchor, q_near) per angle, anchor = q_near
-    clipped to [lo, hi]. Returns [q_1, ..., q_k, d2 + sum (q_i - q_near_i)^2], or None when
-    an angle has no equivalent within limits or the squared distance exceeds ``give_up``.
-    """
-    pi, two_pi = math.pi, _TWO_PI
-    out = []
-    for v, (lo, hi, lo_t, hi_t, anchor, qn) in zip(angles, bounds, strict=False):  # bounds may be longer
-        base = anchor + (pi - (pi - ((pi - (pi - v) % two_pi) - anchor)) % two_pi)  # _wrap1 twice
-        if lo_t <= base <= hi_t and -3.14 < base - qn < 3.14:
-            pick = base  # every other 2*pi-equivalent is farther than pi from q_near
-        else:
-            pick, d = 0.0, math.inf
-            for k in (-2.0, -1.0, 0.0, 1.0, 2.0):
-                c = base + k * two_pi
-                if lo_t <= c <= hi_t and abs(c - qn) < d:
-                    pick, d = c, abs(c - qn)
-            if d == math.inf:
-                return None
-        if pick < lo:
-            pick = lo
-        elif pick > hi:
-            pick = hi
-        out.append(pick)
-        d2 += (pick - qn) * (pick - qn)
-        if d2 > give_up:
-            return None
-    out.append(d2)
-    return out
 
 
 def _wrap(angles: np.ndarray) -> np.ndarray:
@@ -362,50 +223,3 @@ def select_branches(
         if not any(row[j] for j in keep):
             keep.append(i)
     return q[keep]
-
-
-def numerical_branches(
-    model: pin.Model,
-    data: pin.Data,
-    frame_id: int,
-    T_O_F: np.ndarray,
-    seeds: np.ndarray,
-    *,
-    tol: float = 1e-12,
-    max_iter: int = 100,
-) -> np.ndarray:
-    """IK of a frame pose by damped Gauss-Newton on the LOCAL error ``log6(T_O_F(q)^-1 T_O_F)``.
-
-    From each seed, ``dq = (J^T J + lam I)^-1 J^T e`` with the LOCAL frame Jacobian J
-    (lam = 1e-4 while |e| > 1e-3, then 1e-12; steps capped at 0.5 rad) until |e| < tol.
-
-    Args:
-        model: Pinocchio model (not modified).
-        data: Its data (overwritten).
-        frame_id: Frame to place.
-        T_O_F: Target pose (4, 4), rigid.
-        seeds: Start configurations (n, nq) [rad].
-        tol: Convergence threshold on |log6| (metres and radians).
-        max_iter: Iterations per seed.
-
-    Returns:
-        Converged configurations (k, nq) [rad], unwrapped, duplicates not removed.
-    """
-    target = pin.SE3(T_O_F[:3, :3], T_O_F[:3, 3])
-    eye = np.eye(model.nv)
-    out = []
-    for seed in seeds:
-        q = np.array(seed, dtype=float)
-        for _ in range(max_iter):
-            pin.forwardKinematics(model, data, q)
-            err = pin.log6(pin.updateFramePlacement(model, data, frame_id).actInv(target)).vector
-            norm = np.linalg.norm(err)
-            if norm < tol:
-                out.append(q)
-                break
-            J = pin.computeFrameJacobian(model, data, q, frame_id, pin.LOCAL)
-            lam = 1e-4 if norm > 1e-3 else 1e-12
-            dq = np.linalg.solve(J.T @ J + lam * eye, J.T @ err)
-            step = np.abs(dq).max()
-            q = q + (dq if step <= 0.5 else dq * (0.5 / step))
-    return np.array(out, dtype=float).reshape(-1, model.nq)

@@ -33,10 +33,6 @@ TABLE1 = {
 }
 
 
-@pytest.fixture(scope="module")
-def arm():
-    return Arm.irb4600()
-
 
 @pytest.fixture(scope="module")
 def arm_reflected():

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ibvs_youla import Arm, EyeInHand, StereoCamera
+from ibvs_youla import EyeInHand
 from ibvs_youla._geometry import inverse_pose, pose_error, transform_points
 from ibvs_youla.exceptions import (
     DegenerateMarkersError,
@@ -21,14 +21,6 @@ VIEW_MARKERS_O = np.array([[3.0, -0.3, 1.3], [3.0, 0.4, 1.5], [3.3, 0.0, 1.9]])
 Q_VIEW = np.array([0.05, 0.1, -0.1, 0.3, 0.4, -0.2])  # [rad] VIEW markers visible; no singularity
 
 
-@pytest.fixture(scope="module")
-def arm():
-    return Arm.irb4600()
-
-
-@pytest.fixture(scope="module")
-def camera():
-    return StereoCamera.zed2()
 
 
 def random_q(rng, arm, n, margin=0.2):

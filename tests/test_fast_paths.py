@@ -39,14 +39,6 @@ from ibvs_youla.simulation.simulate import _Run
 SEED = 20240611
 
 
-@pytest.fixture(scope="module")
-def arm():
-    return Arm.irb4600()
-
-
-@pytest.fixture(scope="module")
-def camera():
-    return StereoCamera.zed2()
 
 
 def random_q(arm, rng, n):

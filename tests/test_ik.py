@@ -18,10 +18,6 @@ SEED = 1729
 POSE_TOL = 1e-9  # max |FK(q) - T| (rotation entries and metres)
 
 
-@pytest.fixture(scope="module")
-def arm():
-    return Arm.irb4600()
-
 
 @pytest.fixture(scope="module")
 def ur5():

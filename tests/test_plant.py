@@ -15,12 +15,6 @@ D = np.full(6, np.radians(1.0))  # scenario 2's disturbance (ERRATA 14)
 Q0 = np.radians([42.40, 21.20, 4.58, -2.86, 66.46, -42.40])  # Table 1 scenario 2 start
 
 
-@pytest.fixture(scope="module")
-def arm():
-    from ibvs_youla.model.arm import Arm
-
-    return Arm.irb4600()
-
 
 def test_encoders_do_not_see_the_joint_offset_and_the_camera_moves_with_the_true_angles(arm):
     plant = ArmPlant(arm, D, q_encoder=Q0)

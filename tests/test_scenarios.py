@@ -17,20 +17,6 @@ from ibvs_youla.exceptions import (
 from ibvs_youla.scenarios import Scenario
 
 
-@pytest.fixture(scope="module")
-def arm():
-    from ibvs_youla.model.arm import Arm
-
-    return Arm.irb4600()
-
-
-@pytest.fixture(scope="module")
-def camera():
-    from ibvs_youla.model.camera import StereoCamera
-
-    return StereoCamera.zed2()  # the paper's preset: 86.09 x 55.35 deg, 0.5-25 m
-
-
 def _in_camera(arm, q, P_O):
     T_O_C = arm.camera_pose(q)
     return (P_O - T_O_C[:3, 3]) @ T_O_C[:3, :3]  # P_C = R^T (P_O - t), row-wise

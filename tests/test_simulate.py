@@ -24,12 +24,6 @@ from ibvs_youla.simulation.inner_loop import inner_step_response
 from ibvs_youla.simulation.results import SimulationResult
 from ibvs_youla.simulation.settings import SimulationSettings
 
-
-@pytest.fixture(scope="module")
-def arm():
-    return Arm.irb4600()
-
-
 PAPER = SimulationSettings.paper()  # both loops at 1 kHz, as in the paper's Section 7
 
 

@@ -16,11 +16,17 @@ else goes through :func:`ibvs_youla._validation.as_array` and raises
 :class:`~ibvs_youla.exceptions.InvalidArrayError` if it is not valid. The simulator's
 inner loop calls the underscored twins (``_camera_pose``, ``_forward_dynamics``, ...),
 which skip even that check: their callers own arrays that are valid by construction.
+
+One :class:`Arm` may be shared by threads: each thread computes in its own Pinocchio
+``Data``, created from :attr:`Arm.model` on the thread's first call. An arm pickles (and
+``copy.deepcopy``-s) without its data, which the copy rebuilds the same way, so it can be
+shipped to worker processes.
 """
 
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import astuple
 from pathlib import Path
 from typing import Any
@@ -45,12 +51,20 @@ __all__ = ["ActuatorParameters", "Arm"]
 _N = 6
 _IK_TOL = 1e-9  # max |FK(q) - T| accepted for an IK solution (rotation entries and metres)
 _IK_SEEDS = 24  # random seeds of the numerical IK (besides q_near)
+_READ_ONLY = ("armature", "damping", "q_min", "q_max", "dq_max", "tau_max", "T_E_C")
 
 
 def _read_only(x: Any) -> np.ndarray:
     arr = np.array(x, dtype=float)
     arr.setflags(write=False)
     return arr
+
+
+class _ThreadData(threading.local):
+    """One Pinocchio ``Data`` of ``model`` per thread, created on the thread's first access."""
+
+    def __init__(self, model: pin.Model) -> None:
+        self.data = model.createData()
 
 
 class Arm:
@@ -60,6 +74,7 @@ class Arm:
     flange_frame=..., armature=..., damping=..., name=...)`` from a Pinocchio model of six
     revolute joints in series (same meaning as in :meth:`from_urdf`). The model is copied,
     never mutated; do not mutate :attr:`model` either (use :meth:`with_inertia_scale`).
+    Safe to share between threads (one Pinocchio ``Data`` per thread); pickles.
 
     Attributes:
         model: Pinocchio model (``model.armature`` set, ``model.damping`` zero).
@@ -114,7 +129,7 @@ class Arm:
             (frames[self._flange_id].placement.inverse() * frames[self._camera_id].placement).homogeneous
         )
         self._T_C_E = np.linalg.inv(self.T_E_C)
-        self._data = self.model.createData()
+        self._thread_data = _ThreadData(self.model)
         self.ik_parameters = SphericalWristParameters.identify(self.model, self._flange_id)
         rng = np.random.default_rng(0)
         lo, hi = np.maximum(self.q_min, -math.pi), np.minimum(self.q_max, math.pi)
@@ -206,6 +221,19 @@ class Arm:
             arm.ik_parameters = self.ik_parameters
         return arm
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickle (and deepcopy) state: every attribute but the per-thread Pinocchio data."""
+        state = self.__dict__.copy()
+        del state["_thread_data"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Restore the attributes, their read-only flags and a fresh per-thread data."""
+        self.__dict__.update(state)
+        for name in _READ_ONLY:
+            getattr(self, name).setflags(write=False)
+        self._thread_data = _ThreadData(self.model)
+
     def __repr__(self) -> str:
         ik = "closed-form" if self.ik_parameters is not None else "numerical"
         return f"Arm({self.name!r}, nq={self.nq}, ik={ik})"
@@ -226,13 +254,15 @@ class Arm:
 
     def flange_pose(self, q: Any) -> np.ndarray:
         """T_O_E (4, 4): flange pose in the base frame, Eq. (15) (the paper's T_6^0)."""
-        pin.forwardKinematics(self.model, self._data, self._vec(q, "q"))
-        return pin.updateFramePlacement(self.model, self._data, self._flange_id).homogeneous
+        data = self._thread_data.data
+        pin.forwardKinematics(self.model, data, self._vec(q, "q"))
+        return pin.updateFramePlacement(self.model, data, self._flange_id).homogeneous
 
     def camera_pose(self, q: Any) -> np.ndarray:
         """T_O_C (4, 4) = T_O_E(q) T_E_C: camera pose in the base frame (Eq. 21 inverted)."""
-        pin.forwardKinematics(self.model, self._data, self._vec(q, "q"))
-        return pin.updateFramePlacement(self.model, self._data, self._camera_id).homogeneous
+        data = self._thread_data.data
+        pin.forwardKinematics(self.model, data, self._vec(q, "q"))
+        return pin.updateFramePlacement(self.model, data, self._camera_id).homogeneous
 
     def camera_jacobian(self, q: Any) -> np.ndarray:
         """J_C (6, 6): LOCAL frame Jacobian of the camera, maps dq to the camera twist [v; w] in {C}.
@@ -240,43 +270,46 @@ class Arm:
         With the stereo interaction matrix L(P_C), ``L @ J_C`` is the 9x6 image Jacobian
         of Eq. (51). Rank 5 at the wrist singularity q5 = 0 (ERRATA 7).
         """
-        return pin.computeFrameJacobian(self.model, self._data, self._vec(q, "q"), self._camera_id, pin.LOCAL)
+        q = self._vec(q, "q")
+        return pin.computeFrameJacobian(self.model, self._thread_data.data, q, self._camera_id, pin.LOCAL)
 
     # ------------------------------------------------------------------ unchecked hot path
     def _camera_pose(self, q: np.ndarray) -> np.ndarray:
         """`camera_pose` without the argument check (q a finite float64 (6,) array)."""
-        pin.forwardKinematics(self.model, self._data, q)
-        return pin.updateFramePlacement(self.model, self._data, self._camera_id).homogeneous
+        data = self._thread_data.data
+        pin.forwardKinematics(self.model, data, q)
+        return pin.updateFramePlacement(self.model, data, self._camera_id).homogeneous
 
     def _camera_pose_and_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(`camera_pose`, `camera_jacobian`) at q from one kinematics pass, unchecked."""
-        model, data = self.model, self._data
+        model, data = self.model, self._thread_data.data
         pin.computeJointJacobians(model, data, q)
         J_C = pin.getFrameJacobian(model, data, self._camera_id, pin.LOCAL)
         return pin.updateFramePlacement(model, data, self._camera_id).homogeneous, J_C
 
     def _forward_dynamics(self, q: np.ndarray, dq: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """`forward_dynamics` without the argument checks (RK4 stages of the plant)."""
-        return pin.aba(self.model, self._data, q, dq, tau - self.damping * dq)
+        return pin.aba(self.model, self._thread_data.data, q, dq, tau - self.damping * dq)
 
     def _inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
         """`inverse_dynamics` without the argument checks: M(q) ddq + h(q, dq) in one RNEA pass."""
-        return pin.rnea(self.model, self._data, q, dq, ddq) + self.damping * dq
+        return pin.rnea(self.model, self._thread_data.data, q, dq, ddq) + self.damping * dq
 
     # ------------------------------------------------------------------ dynamics
     def mass_matrix(self, q: Any) -> np.ndarray:
         """M(q) = D(q) + J (6, 6), Eq. (31): CRBA with the armature, both triangles filled."""
-        M = pin.crba(self.model, self._data, self._vec(q, "q"))
+        M = pin.crba(self.model, self._thread_data.data, self._vec(q, "q"))
         return np.triu(M) + np.triu(M, 1).T
 
     def nonlinear_effects(self, q: Any, dq: Any) -> np.ndarray:
         """h(q, dq) = C(q, dq) dq + g(q) + (B / r) dq (6,) [N m], Eq. (32)."""
         dq = self._vec(dq, "dq")
-        return pin.nonLinearEffects(self.model, self._data, self._vec(q, "q"), dq) + self.damping * dq
+        h = pin.nonLinearEffects(self.model, self._thread_data.data, self._vec(q, "q"), dq)
+        return h + self.damping * dq
 
     def gravity(self, q: Any) -> np.ndarray:
         """g(q) (6,) [N m], the gravity torques of Eq. (29)."""
-        return pin.computeGeneralizedGravity(self.model, self._data, self._vec(q, "q")).copy()
+        return pin.computeGeneralizedGravity(self.model, self._thread_data.data, self._vec(q, "q")).copy()
 
     def forward_dynamics(self, q: Any, dq: Any, tau: Any) -> np.ndarray:
         """Joint accelerations ddq (6,) [rad/s^2] solving Eq. (30) M(q) ddq + h(q, dq) = tau.
@@ -285,12 +318,12 @@ class Arm:
         """
         dq = self._vec(dq, "dq")
         tau = self._vec(tau, "tau") - self.damping * dq
-        return pin.aba(self.model, self._data, self._vec(q, "q"), dq, tau).copy()
+        return pin.aba(self.model, self._thread_data.data, self._vec(q, "q"), dq, tau).copy()
 
     def inverse_dynamics(self, q: Any, dq: Any, ddq: Any) -> np.ndarray:
         """Joint torques tau = M(q) ddq + h(q, dq) (6,) [N m], Eq. (30) (RNEA with armature, plus damping)."""
         dq = self._vec(dq, "dq")
-        tau = pin.rnea(self.model, self._data, self._vec(q, "q"), dq, self._vec(ddq, "ddq"))
+        tau = pin.rnea(self.model, self._thread_data.data, self._vec(q, "q"), dq, self._vec(ddq, "ddq"))
         return tau + self.damping * dq
 
     def kinetic_energy(self, q: Any, dq: Any) -> float:
@@ -300,7 +333,7 @@ class Arm:
 
     def potential_energy(self, q: Any) -> float:
         """Gravitational potential energy of the links and camera [J] (zero at base height)."""
-        return float(pin.computePotentialEnergy(self.model, self._data, self._vec(q, "q")))
+        return float(pin.computePotentialEnergy(self.model, self._thread_data.data, self._vec(q, "q")))
 
     # ------------------------------------------------------------------ inverse kinematics
     def ik(self, T_O_C: Any, q_near: Any = None) -> np.ndarray:
@@ -334,7 +367,7 @@ class Arm:
             raw = closed_form_branches(self.ik_parameters, T_O_C @ self._T_C_E, ref)
         else:
             seeds = self._ik_seeds if q_near is None else np.vstack([ref, self._ik_seeds])
-            raw = numerical_branches(self.model, self._data, self._camera_id, T_O_C, seeds)
+            raw = numerical_branches(self.model, self._thread_data.data, self._camera_id, T_O_C, seeds)
         solutions = select_branches(raw, self.q_min, self.q_max, ref)
         solutions = solutions[[np.abs(self._camera_pose(q) - T_O_C).max() <= _IK_TOL for q in solutions]]
         if solutions.shape[0] == 0:

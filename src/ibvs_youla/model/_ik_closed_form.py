@@ -1,20 +1,120 @@
-"""Scalar steps of the closed-form IK (derivation in :mod:`ibvs_youla.model.ik`).
+"""Arm lengths and scalar steps of the closed-form IK (derivation in :mod:`ibvs_youla.model.ik`).
 
 Shared by :func:`~ibvs_youla.model.ik.closed_form_branches`, which builds every branch,
-and :func:`~ibvs_youla.model.ik.nearest_branch`, which solves them nearest-first.
+and :func:`~ibvs_youla.model.ik.nearest_branch`, which solves them nearest-first. The
+lowest of the IK modules: it imports none of them.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from functools import cached_property
 
-if TYPE_CHECKING:  # pragma: no cover
-    from .ik import SphericalWristParameters
+import numpy as np
+import pinocchio as pin
 
+from ..exceptions import InvalidParameterError
 
 _SINGULAR = 1e-10  # |sin q5| [-] and wrist-centre distance to axis 1 [m] treated as exactly singular
 _TWO_PI = 2.0 * math.pi
+_ALPHA = (-0.5 * math.pi, 0.0, -0.5 * math.pi, 0.5 * math.pi, -0.5 * math.pi, 0.0)  # [rad]
+_THETA_OFFSET = (0.0, -0.5 * math.pi, 0.0, 0.0, 0.0, 0.0)  # [rad]
+
+
+def _dh(d: float, a: float, alpha: float, theta: float) -> np.ndarray:
+    """Standard DH transform Rz(theta) Tz(d) Tx(a) Rx(alpha), Eq. (12)-(13)."""
+    ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
+    return np.array(
+        [[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0, sa, ca, d], [0, 0, 0, 1.0]]
+    )
+
+
+@dataclass(frozen=True)
+class SphericalWristParameters:
+    """Lengths [m] of an IRB 4600-type arm (DH structure in the :mod:`ibvs_youla.model.ik` docstring).
+
+    Attributes:
+        d1: Height of joint 2's axis above the base frame.
+        a1: Shoulder offset (joint 2's axis from joint 1's axis).
+        a2: Upper arm, joint 2 to joint 3 (> 0).
+        a3: Elbow offset, perpendicular to the forearm.
+        d4: Forearm, along axis 4 to the wrist centre.
+        d6: Wrist centre to flange along axis 6.
+    """
+
+    d1: float
+    a1: float
+    a2: float
+    a3: float
+    d4: float
+    d6: float
+
+    def __post_init__(self) -> None:
+        for name in ("d1", "a1", "a2", "a3", "d4", "d6"):
+            if not math.isfinite(getattr(self, name)):
+                raise InvalidParameterError(name, getattr(self, name), "a finite length [m]")
+        if self.a2 <= 0.0:
+            raise InvalidParameterError("a2", self.a2, "> 0 m")
+        if math.hypot(self.a3, self.d4) <= 0.0:
+            raise InvalidParameterError("(a3, d4)", (self.a3, self.d4), "not both zero")
+
+    @cached_property
+    def _elbow_constants(self) -> tuple[float, float, float]:
+        """(L, beta, 2 a2 L) of the law of cosines (:mod:`ibvs_youla.model.ik` docstring), computed once."""
+        L = math.hypot(self.a3, self.d4)
+        return L, math.atan2(self.d4, self.a3), 2.0 * self.a2 * L
+
+    @classmethod
+    def irb4600(cls) -> SphericalWristParameters:
+        """ABB IRB 4600-45/2.05, ERRATA 1 / Table A1."""
+        return cls(d1=0.495, a1=0.175, a2=0.900, a3=0.175, d4=0.960, d6=0.135)
+
+    def dh_rows(self) -> tuple[tuple[float, float, float, float], ...]:
+        """Standard DH rows (d [m], a [m], alpha [rad], theta_offset [rad]), Eq. (12)."""
+        ds = (self.d1, 0.0, 0.0, self.d4, 0.0, self.d6)
+        as_ = (self.a1, self.a2, self.a3, 0.0, 0.0, 0.0)
+        return tuple(zip(ds, as_, _ALPHA, _THETA_OFFSET, strict=True))
+
+    def flange_pose(self, q: np.ndarray) -> np.ndarray:
+        """T_O_E (4, 4) by the DH product of Eq. (15), for checks against a model."""
+        T_O_E = np.eye(4)
+        for (d, a, alpha, offset), qi in zip(self.dh_rows(), q, strict=True):
+            T_O_E = T_O_E @ _dh(d, a, alpha, float(qi) + offset)
+        return T_O_E
+
+    @classmethod
+    def identify(
+        cls, model: pin.Model, flange_frame_id: int, n_checks: int = 8
+    ) -> SphericalWristParameters | None:
+        """Read the lengths off a 6-joint model's axes at q = 0, or None if it is not of this type.
+
+        Joint axis lines come from the WORLD joint Jacobian at q = 0 (column [v; w], with
+        v = p x w for any point p of the axis, so the foot of the axis is w x v). The
+        candidate is accepted only if its DH flange pose matches the model's to 1e-9 at
+        ``n_checks`` seeded random configurations.
+        """
+        data = model.createData()
+        q0 = np.zeros(model.nq)
+        J = pin.computeJointJacobians(model, data, q0)
+        feet = np.cross(J[3:].T, J[:3].T)  # (6, 3) foot of each joint axis [m]
+        pin.updateFramePlacements(model, data)
+        x_flange = data.oMf[flange_frame_id].translation[0]
+        d1, a1 = feet[1, 2], feet[1, 0]
+        lengths = (d1, a1, feet[2, 2] - d1, feet[3, 2] - feet[2, 2], feet[4, 0] - a1, x_flange - feet[4, 0])
+        try:
+            cand = cls(*(float(x) for x in lengths))
+        except InvalidParameterError:
+            return None
+        rng = np.random.default_rng(0)
+        lo = np.maximum(model.lowerPositionLimit, -math.pi)
+        hi = np.minimum(model.upperPositionLimit, math.pi)
+        for q in [q0, *(lo + (hi - lo) * rng.random((n_checks, model.nq)))]:
+            pin.forwardKinematics(model, data, q)
+            T_model = pin.updateFramePlacement(model, data, flange_frame_id).homogeneous
+            if not np.allclose(cand.flange_pose(q), T_model, rtol=0.0, atol=1e-9):
+                return None
+        return cand
 
 
 def _wrist_angles(
@@ -36,8 +136,13 @@ def _wrist_angles(
     ]
 
 
+def _wrap(angles: np.ndarray) -> np.ndarray:
+    """Map angles to (-pi, pi]."""
+    return math.pi - np.mod(math.pi - angles, _TWO_PI)
+
+
 def _wrap1(x: float) -> float:
-    """Map one angle to (-pi, pi], as ``ik._wrap`` computes it (same float result)."""
+    """Map one angle to (-pi, pi], as :func:`_wrap` computes it (same float result)."""
     return math.pi - (math.pi - x) % _TWO_PI
 
 

@@ -15,7 +15,7 @@ from ._ik_closed_form import _TWO_PI, _elbows, _shoulders, _wrap1, _wrist_angles
 if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
 
-    from .ik import SphericalWristParameters
+    from ._ik_closed_form import SphericalWristParameters
 
 __all__ = ["nearest_branch"]
 

@@ -30,16 +30,14 @@ integrator in every damped direction.)
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any, NamedTuple
 
 import control as ct
 import numpy as np
 from scipy.linalg import block_diag
 
 from .._validation import as_array
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .outer import OuterLoopDesign
+from .outer import OuterLoopDesign, _frequencies  # one way: outer does not import this module
 
 __all__ = ["LiteralMimo", "LiteralResponse", "literal_matrices", "literal_mimo", "literal_response"]
 
@@ -105,8 +103,6 @@ def literal_matrices(
         printed_order: Build Eq. (58) as printed, U_R M_Y U_L = V^T M_Y U, instead of
             the derived V M_Y U^T (to show that the printed order is wrong).
     """
-    from .outer import _frequencies
-
     w = _frequencies(omegas)
     U, s_d, Vt, ctrl = _design_svd(design, J)
     m, n = U.shape[0], Vt.shape[0]

@@ -18,7 +18,8 @@ M_T = m_T diag(I_6, 0_3), m_T = omega^2/(s^2 + 2 zeta omega s + omega^2) (Eq. (5
 because m_T/(1 - m_T) = omega^2/(s (s + 2 zeta omega)). Eq. (58) is printed U_R M_Y U_L;
 with G_p = U_L M_p U_R the inverse needs U_R^-1 = V on the left and U_L^-1 = U^T on the
 right (the printed order V^T M_Y U is only dimensionally right). Rebuilding Eq. (58)-(61)
-as MIMO transfer matrices (:mod:`ibvs_youla.control.literal`) gives the same controller.
+as MIMO transfer matrices (:mod:`ibvs_youla.control.literal`, which takes a design as
+argument: ``literal_response(design, J, omegas)``) gives the same controller.
 
 At low frequency K(s) ~ omega/(2 zeta s), so q_fb' ~ (omega/(2 zeta)) J^+ e: classical
 IBVS with gain lambda = omega/(2 zeta) = 0.5 1/s for the paper's omega = 10 rad/s,
@@ -33,7 +34,7 @@ replaces 1/sigma_i in Eq. (57) by a bounded gain g(sigma_i)
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import control as ct
 import numpy as np
@@ -43,9 +44,6 @@ from .._validation import as_array, positive
 from ..exceptions import InvalidParameterError
 from .discrete import DiscreteFilter
 from .singular_values import SingularValuePolicy, SvdGains
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .literal import LiteralMimo
 
 __all__ = ["OuterLoopController", "OuterLoopDesign", "SingularValuePolicy", "SvdGains"]
 
@@ -146,18 +144,6 @@ class OuterLoopDesign:
         P = self.sv_policy.pseudo_inverse(J)
         k = self.filter_tf()(1j * w)
         return k[:, None, None] * P[None, :, :]
-
-    def literal_response(self, J: Any, omegas: Any) -> np.ndarray:
-        """G_C(j omega) from Eq. (53)-(61) as complex matrices (see :mod:`.literal`)."""
-        from .literal import literal_response
-
-        return literal_response(self, J, omegas)
-
-    def literal_mimo(self, J: Any) -> LiteralMimo:
-        """Eq. (53)-(61) built as python-control MIMO systems (see :mod:`.literal`)."""
-        from .literal import literal_mimo
-
-        return literal_mimo(self, J)
 
     # ------------------------------------------------------------------ runtime
     def runtime(

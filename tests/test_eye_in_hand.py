@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ibvs_youla import EyeInHand
-from ibvs_youla._geometry import inverse_pose, pose_error, transform_points
+from ibvs_youla._geometry import inverse_pose, pose_error_mm_deg, transform_points
 from ibvs_youla.exceptions import (
     DegenerateMarkersError,
     InvalidArrayError,
@@ -101,8 +101,8 @@ def test_stereo_p3p_and_inverse_model_recover_pose_and_joints(arm, camera, virtu
         if np.abs(eih.points_in_camera(q)[:, 2]).min() < 0.05:
             continue
         s = eih.features(q)
-        rot, trans = pose_error(eih.estimate_camera_pose(s), arm.camera_pose(q))
-        assert rot <= 1e-9 and trans <= 1e-9
+        mm, deg = pose_error_mm_deg(eih.estimate_camera_pose(s), arm.camera_pose(q))
+        assert np.radians(deg) <= 1e-9 and mm / 1000.0 <= 1e-9  # [rad], [m]
         assert np.abs(eih.estimate_q(s, q_near=q + rng.uniform(-0.05, 0.05, 6)) - q).max() <= 1e-9
     assert np.abs(eih.estimate_q(eih.features(Q_VIEW).reshape(3, 3), Q_VIEW) - Q_VIEW).max() <= 1e-9
 

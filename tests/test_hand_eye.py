@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 
 from ibvs_youla import calibrate_hand_eye
-from ibvs_youla._geometry import inverse_pose, make_pose, pose_error
+from ibvs_youla._geometry import inverse_pose, make_pose, pose_error_mm_deg
 from ibvs_youla.exceptions import CalibrationError, InvalidArrayError
 
 
@@ -37,8 +37,8 @@ def test_recovers_the_irb4600_default_rz_pi():
     rng = np.random.default_rng(1)
     X = make_pose(pin.rpy.rpyToMatrix(0.0, 0.0, np.pi), np.zeros(3))
     A, B = motions(rng, X, 5)
-    rot, trans = pose_error(calibrate_hand_eye(A, B), X)
-    assert rot <= 1e-12 and trans <= 1e-12
+    mm, deg = pose_error_mm_deg(calibrate_hand_eye(A, B), X)
+    assert np.radians(deg) <= 1e-12 and mm / 1000.0 <= 1e-12  # [rad], [m]
 
 
 def test_noisy_camera_motions_still_give_a_rotation():
@@ -48,7 +48,8 @@ def test_noisy_camera_motions_still_give_a_rotation():
     B = np.array([b @ random_pose(rng, angle=0.01, scale=0.001) for b in B])  # ~0.01 rad, 1 mm noise
     X_est = calibrate_hand_eye(A, B)
     assert np.linalg.det(X_est[:3, :3]) == pytest.approx(1.0, abs=1e-12)
-    rot, trans = pose_error(X_est, X)
+    mm, deg = pose_error_mm_deg(X_est, X)
+    rot, trans = np.radians(deg), mm / 1000.0
     assert rot == pytest.approx(1.736e-3, rel=1e-3)  # [rad] seeded statistic (measured 1.73587e-3)
     assert trans == pytest.approx(1.327e-3, rel=1e-3)  # [m] seeded statistic (measured 1.32744e-3)
 
@@ -97,7 +98,8 @@ def calibration_errors(noise_px, n_runs, seed):
     for _ in range(n_runs):
         A, B = simulate_hand_eye_run(arm, camera, VIEW_MARKERS_O, np.zeros(6), 20, rng, pixel_noise=noise_px)
         assert A.shape == B.shape == (19, 4, 4)
-        errors.append(pose_error(calibrate_hand_eye(A, B), arm.T_E_C))
+        mm, deg = pose_error_mm_deg(calibrate_hand_eye(A, B), arm.T_E_C)
+        errors.append((np.radians(deg), mm / 1000.0))
     return np.array(errors)  # (n_runs, 2): rotation [rad], translation [m]
 
 

@@ -60,7 +60,7 @@ def test_final_error_is_target_minus_last_sample():
     np.testing.assert_allclose(metrics.final_error(y, [1.0, 3.0]), [0.1, 0.5], rtol=0, atol=1e-15)
 
 
-def test_pose_error_of_a_known_rotation_and_translation():
+def test_pose_error_mm_deg_of_a_known_rotation_and_translation():
     rng = np.random.default_rng(7)
     R_a = Rotation.random(random_state=rng).as_matrix()
     axis = rng.normal(size=3)
@@ -69,7 +69,7 @@ def test_pose_error_of_a_known_rotation_and_translation():
         R_b = R_a @ Rotation.from_rotvec(np.radians(angle_deg) * axis).as_matrix()
         p_a = rng.normal(size=3)
         p_b = p_a + np.array([0.003, -0.004, 0.0])  # 5 mm
-        mm, deg = metrics.pose_error(_pose(R_a, p_a), _pose(R_b, p_b))
+        mm, deg = metrics.pose_error_mm_deg(_pose(R_a, p_a), _pose(R_b, p_b))
         assert mm == pytest.approx(5.0, abs=1e-9)
         assert deg == pytest.approx(angle_deg, abs=1e-7)
 
@@ -92,4 +92,4 @@ def test_bad_input_raises_library_errors():
     with pytest.raises(InvalidParameterError, match="band"):
         metrics.settling_time(np.arange(3.0), np.ones(3), band=0.0)
     with pytest.raises(InvalidArrayError, match="T_O_A"):
-        metrics.pose_error(np.ones((4, 4)), np.eye(4))
+        metrics.pose_error_mm_deg(np.ones((4, 4)), np.eye(4))

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ibvs_youla import StereoCamera, rigid_transform_from_points
-from ibvs_youla._geometry import inverse_pose, make_pose, pose_error, transform_points
+from ibvs_youla._geometry import inverse_pose, make_pose, pose_error_mm_deg, transform_points
 from ibvs_youla.estimation.stereo_pose import (
     estimate_pose,
     marker_coordinates,
@@ -66,7 +66,7 @@ def test_reflection_fix_is_needed_with_three_points():
         U, s, Vt = np.linalg.svd(H)
         assert s[2] <= 1e-12 * s[0]  # rank 2
         reflections += np.linalg.det(Vt.T @ U.T) < 0
-        assert pose_error(rigid_transform_from_points(P, Q), T)[0] <= 1e-9
+        assert np.radians(pose_error_mm_deg(rigid_transform_from_points(P, Q), T)[1]) <= 1e-9
     assert 40 <= reflections <= 160  # the unfixed formula fails on a substantial share
 
 
@@ -77,8 +77,8 @@ def test_recovery_is_scale_invariant(seed, log_scale):
     scale = 10.0**log_scale
     T = random_pose(rng, scale)
     P = rng.normal(size=(3, 3)) * scale
-    rot, trans = pose_error(rigid_transform_from_points(P, transform_points(T, P)), T)
-    assert rot <= 1e-8 and trans <= 1e-8 * scale
+    mm, deg = pose_error_mm_deg(rigid_transform_from_points(P, transform_points(T, P)), T)
+    assert np.radians(deg) <= 1e-8 and mm / 1000.0 <= 1e-8 * scale  # [rad], [m]
 
 
 def test_weights_ignore_an_outlier():
@@ -87,8 +87,9 @@ def test_weights_ignore_an_outlier():
     P = rng.normal(size=(5, 3))
     Q = transform_points(T, P)
     Q[4] += 1.0  # outlier
-    assert pose_error(rigid_transform_from_points(P, Q, weights=[1, 2, 1, 3, 0]), T)[0] <= 1e-9
-    assert pose_error(rigid_transform_from_points(P, Q), T)[0] > 1e-3
+    _, deg_weighted = pose_error_mm_deg(rigid_transform_from_points(P, Q, weights=[1, 2, 1, 3, 0]), T)
+    _, deg_plain = pose_error_mm_deg(rigid_transform_from_points(P, Q), T)
+    assert np.radians(deg_weighted) <= 1e-9 and np.radians(deg_plain) > 1e-3  # [rad]
 
 
 # ----------------------------------------------------------------------------------------- degenerate input
@@ -127,7 +128,8 @@ def test_estimate_pose_rejects_bad_arrays():
     """Bad input raises InvalidArrayError naming the argument, not numpy's LinAlgError or a NaN pose."""
     cam, T_O_C = StereoCamera.zed2(), random_viewing_pose(np.random.default_rng(12))
     p = cam.project(transform_points(inverse_pose(T_O_C), MARKERS_O))
-    assert max(pose_error(estimate_pose(cam, p.reshape(-1), MARKERS_O), T_O_C)) <= 1e-9  # flat (9,) accepted
+    mm, deg = pose_error_mm_deg(estimate_pose(cam, p.reshape(-1), MARKERS_O), T_O_C)  # flat (9,) accepted
+    assert np.radians(deg) <= 1e-9 and mm / 1000.0 <= 1e-9  # [rad], [m]
     bad = p.copy()
     bad[1, 2] = np.nan
     with pytest.raises(InvalidArrayError, match=r"p_image: received non-finite entries at \(1, 2\)"):
@@ -175,7 +177,8 @@ def p3p_errors(noise_px, n_trials, seed):
         p = cam.project(P_C)
         if noise_px:
             p = cam.from_pixels(cam.to_pixels(p) + rng.normal(0.0, noise_px, p.shape))
-        errors.append(pose_error(estimate_pose(cam, p, MARKERS_O), T_O_C))
+        mm, deg = pose_error_mm_deg(estimate_pose(cam, p, MARKERS_O), T_O_C)
+        errors.append((np.radians(deg), mm / 1000.0))
     return np.array(errors)  # (n, 2): rotation [rad], translation [m]
 
 

@@ -1,13 +1,24 @@
-"""Small SE(3) helpers on 4x4 homogeneous matrices (internal, unvalidated, hot-path safe).
+"""Small SE(3) helpers on 4x4 homogeneous matrices (internal, hot-path safe).
 
 Frames follow docs/conventions.md: ``T_A_B`` is the pose of frame B in frame A, so
 ``P_A = transform_points(T_A_B, P_B)``. Logarithms and exponentials come from Pinocchio.
+Unvalidated, except :func:`pose_error_mm_deg`, which checks its two poses (it is public
+as :func:`ibvs_youla.analysis.metrics.pose_error_mm_deg`).
+
+The distance between two poses is measured one way everywhere (estimation tests,
+convergence, metrics): ``|p_A - p_B|`` in mm and the angle of ``R_err = R_A^T R_B`` in
+degrees, ``atan2(|vee(R_err - R_err^T)| / 2, (tr R_err - 1) / 2)``, accurate near 0 and
+pi. Both are symmetric in A and B.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pinocchio as pin
+
+from ._validation import as_pose
 
 
 def make_pose(R: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -29,18 +40,31 @@ def transform_points(T_A_B: np.ndarray, P_B: np.ndarray) -> np.ndarray:
     return P_B @ T_A_B[:3, :3].T + T_A_B[:3, 3]
 
 
-def pose_error(T_est: np.ndarray, T_ref: np.ndarray) -> tuple[float, float]:
-    """Return (rotation error [rad], translation error [m]) between two poses.
+def pose_error_mm_deg(T_O_A: Any, T_O_B: Any) -> tuple[float, float]:
+    """Distance between two poses: (position [mm], rotation angle of ``R_A^T R_B`` [deg]).
 
-    The rotation error is the angle of R_ref^T R_est (geodesic distance on SO(3)); same
-    computation as :func:`ibvs_youla.analysis.metrics.pose_error`, in SI units.
+    Raises:
+        InvalidArrayError: ``T_O_A`` or ``T_O_B`` is not a rigid (4, 4) transform.
     """
-    from .analysis.metrics import pose_error_series
+    T_O_A = as_pose(T_O_A, "T_O_A")
+    T_O_B = as_pose(T_O_B, "T_O_B")
+    position_mm, rotation_deg = pose_error_series_mm_deg(T_O_A[None], T_O_B)
+    return float(position_mm[0]), float(rotation_deg[0])
 
-    position_mm, rotation_deg = pose_error_series(
-        np.asarray(T_est, dtype=float)[None], np.asarray(T_ref, dtype=float)
-    )
-    return float(np.radians(rotation_deg[0])), float(position_mm[0]) / 1000.0
+
+def pose_error_series_mm_deg(T_O_A: np.ndarray, T_O_B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`pose_error_mm_deg` of a pose sequence (N, 4, 4) against one pose (4, 4), unvalidated.
+
+    Returns:
+        ``(position [mm] (N,), rotation [deg] (N,))`` (module docstring).
+    """
+    position_mm = 1000.0 * np.linalg.norm(T_O_A[:, :3, 3] - T_O_B[:3, 3], axis=1)
+    R_err = np.einsum("nji,jk->nik", T_O_A[:, :3, :3], T_O_B[:3, :3])  # R_A^T R_B
+    skew = R_err - np.transpose(R_err, (0, 2, 1))
+    vee = np.stack([skew[:, 2, 1], skew[:, 0, 2], skew[:, 1, 0]], axis=1)
+    sin_angle = 0.5 * np.linalg.norm(vee, axis=1)
+    cos_angle = 0.5 * (np.trace(R_err, axis1=1, axis2=2) - 1.0)
+    return position_mm, np.degrees(np.arctan2(sin_angle, cos_angle))
 
 
 def exp_twist(xi: np.ndarray) -> np.ndarray:

@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._geometry import pose_error_series_mm_deg
 from .._validation import positive
-from .metrics import pose_error_series
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..simulation.results import SimulationResult
@@ -152,5 +152,5 @@ def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> 
 
 def _pose_within(result: SimulationResult, tol: Tolerances) -> np.ndarray:
     """Per sample: camera position and rotation errors within tolerance."""
-    position_mm, rotation_deg = pose_error_series(result.camera_pose, result.camera_pose_target)
+    position_mm, rotation_deg = pose_error_series_mm_deg(result.camera_pose, result.camera_pose_target)
     return (position_mm <= tol.position_mm) & (rotation_deg <= tol.rotation_deg)

@@ -1,8 +1,9 @@
 """Time one adaptive outer-loop update, its parts, its floor and the literal rebuild, in one run.
 
-The update is what the simulator does at every camera frame of an adaptive run
-(``_Run._camera_frame``): features from the camera (forward kinematics of the true arm and
-stereo projection, Eq. (11), (24)), the configuration estimate of Eq. (62) (stereo P3P +
+The update is what the servo loop does at every camera frame of an adaptive run, through the
+public roles: the true camera pose (forward kinematics of the true arm), the sensor's features
+(``MarkerSensor.measure``: stereo projection, Eq. (11), (24), and per-point visibility), and the
+paper's controller (``YoulaController.update``): the configuration estimate of Eq. (62) (stereo P3P +
 closed-form IK, nearest branch), the image Jacobian L(P_C) J_C(q~) of Eq. (51), its SVD with
 the singular-value policy and pseudo-inverse (Eq. (57), ERRATA 7), and the controller state
 update q_fb = K(z)[J^+ e] (ERRATA 9); plus the per-frame visibility flag and bookkeeping.
@@ -49,8 +50,9 @@ from ibvs_youla.control.literal import literal_mimo
 from ibvs_youla.control.outer import OuterLoopDesign
 from ibvs_youla.model.arm import Arm
 from ibvs_youla.model.camera import StereoCamera
+from ibvs_youla.controllers import JointReading, ServoTask, YoulaController
+from ibvs_youla.simulation.sensor import MarkerSensor
 from ibvs_youla.simulation.settings import SimulationSettings
-from ibvs_youla.simulation.simulate import _Run
 
 PARTS = ("features", "visibility", "pose_ik", "jacobian", "svd", "state_update")
 FLOOR = ("fk", "frame_jacobian", "svd_9x6", "svd_3x3")
@@ -68,11 +70,21 @@ def _configurations(arm: Arm, n: int, seed: int) -> list[tuple[Any, np.ndarray]]
     return out
 
 
-def _runs(arm: Arm, camera: StereoCamera) -> dict[str, _Run]:
-    settings = SimulationSettings.paper()  # adaptive outer loop at every 1 kHz sample
-    return {
-        sc.name: _Run(sc, "ff+fb", True, 1.0, settings, arm, camera) for sc in scenarios.paper_scenarios()
-    }
+class _Frame:
+    """One scenario's sensor and paper controller, built through the public roles."""
+
+    def __init__(self, sc: Any, arm: Arm, camera: StereoCamera) -> None:
+        settings = SimulationSettings.paper()  # adaptive outer loop at every 1 kHz sample
+        self.sensor = MarkerSensor(camera, sc.markers_O, virtual_points=sc.virtual_points)
+        T_target = arm.camera_pose(sc.q_target)
+        self.task = ServoTask(
+            camera=camera, markers_O=sc.markers_O, feature_target=self.sensor.features_at(T_target),
+            T_O_C_target=T_target, tick_period=settings.dt, frame_period=settings.dt,
+            virtual_points=sc.virtual_points, arm=arm, q_start=sc.q_start, q_target=sc.q_target,
+        )
+        self.controller = YoulaController(feedforward=True, adaptive=True, settings=settings.controller_settings())
+        self.controller.reset(self.task)
+        self.arm = arm
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
@@ -86,16 +98,16 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     args = ap.parse_args(argv)
 
     arm, camera = Arm.irb4600(), StereoCamera.zed2()
-    runs = _runs(arm, camera)
+    runs = {sc.name: _Frame(sc, arm, camera) for sc in scenarios.paper_scenarios()}
     model, data, cam_id = arm.model, arm.model.createData(), arm._camera_id
     configs = _configurations(arm, args.configs, args.seed)
 
     # Data of each configuration, computed once with the library's checked methods.
-    outers = {name: copy.deepcopy(run.outer) for name, run in runs.items()}  # for the timed parts
+    outers = {name: copy.deepcopy(run.controller._outer) for name, run in runs.items()}  # for the timed parts
     prepared = []
     for sc, q_true in configs:
         run = runs[sc.name]
-        eye = run.eye
+        eye = run.controller._eye
         q_enc = q_true - sc.joint_offset  # Eq. (62) picks the branch nearest the encoders
         p = eye.features(q_true)
         q_est = eye.estimate_q(p, q_enc)
@@ -104,28 +116,27 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         H = (H - H.mean(axis=0)).T @ (eye.markers_O - eye.markers_O.mean(axis=0))
         prepared.append((run, outers[sc.name], q_true, q_enc, q_est, J, H))
 
-    states = {id(c[2]): np.concatenate([c[2], np.zeros(6)]) for c in prepared}  # packed [q_true; dq]
     names = ("update", *PARTS, *FLOOR, "svd_9x6_numpy", "svd_3x3_numpy")
     times: dict[str, list[float]] = {k: [] for k in names}
 
+    zeros = np.zeros(6)
+
     def update_pass(record: bool) -> None:
         for run, _, q_true, q_enc, _, _, _ in prepared:
-            run.plant._set_state(states[id(q_true)])  # this configuration, at rest
-            run.q_estimate = None
-            run.k = 1
+            reading = JointReading(0.0, q_enc, zeros)  # this configuration, at rest
             t0 = perf_counter()
-            run._camera_frame(q_enc)  # the update, as the simulator runs it
+            frame = run.sensor.measure(run.arm.camera_pose(q_true), 0.0)  # the update, as the loop runs it
+            run.controller.update(frame, reading)
             t1 = perf_counter()
             if record:
                 times["update"].append(t1 - t0)
 
     def parts_pass(record: bool) -> None:
-        """The update's parts in its order, calling what _camera_frame calls."""
+        """The update's parts in its order, calling what the sensor and the controller call."""
         for run, outer, q_true, q_enc, _, _, _ in prepared:
-            run.plant._set_state(states[id(q_true)])
-            eye, camera = run.eye, run.eye.camera
+            eye, camera = run.controller._eye, run.controller._eye.camera
             t = [perf_counter()]
-            P_C = eye._points_in_camera_at_pose(run.plant._camera_pose())
+            P_C = run.sensor.points_in_camera(run.arm.camera_pose(q_true))
             p_meas = camera._project_flat(P_C, eye.virtual_points)
             t.append(perf_counter())
             camera._visible_each(P_C)
@@ -137,7 +148,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             U, _, g, Vt = outer._policy._svd_gains(J_hat)
             t.append(perf_counter())
             # the state update as OuterLoopController._update does it
-            outer._filter._step(Vt.T.dot(g * U.T.dot(run.p_target - p_meas)))
+            outer._filter._step(Vt.T.dot(g * U.T.dot(run.controller._p_target - p_meas)))
             t.append(perf_counter())
             if record:
                 for name, a, b in zip(PARTS, t[:-1], t[1:], strict=True):

@@ -8,11 +8,11 @@ Two settings per scenario, controller ``"ff+fb"``, adaptive outer loop (the pape
   every sample recorded.
 
 ``realtime_factor`` = simulated time / median wall time of ``simulate(...)`` (arm and camera
-built beforehand; the run's own set-up is included). The cost split comes from a separate,
-instrumented run of the same loop in which the plant step (RK4 of Eq. (29): four ABA calls,
-divergence checks) and the camera frame (the adaptive outer-loop update) are timed per call;
-the rest of the loop (feedforward, inner Youla loop, feedback linearization M(q) v + h with
-CRBA and RNEA, recording) is the joint-loop control.
+built beforehand; the run's own set-up is included). The cost split is the servo loop's own
+phase timing of the same runs (``result.metadata["phase_seconds"]``): the plant step (RK4 of
+Eq. (29): four ABA calls, divergence checks), the camera frame (true camera pose, sensor and
+the adaptive outer-loop update), and the joint-loop control (feedforward, the inner Youla loop
+and feedback linearization M(q) v + h in one RNEA pass, recording).
 
 Run: ``python benchmarks/bench_simulation.py --json simulation.json``.
 """
@@ -35,42 +35,26 @@ from ibvs_youla import scenarios
 from ibvs_youla.model.arm import Arm
 from ibvs_youla.model.camera import StereoCamera
 from ibvs_youla.simulation.settings import SimulationSettings
-from ibvs_youla.simulation.simulate import _Run
 
 SETTINGS = {"paper": SimulationSettings.paper(), "two-rate": SimulationSettings(camera_rate_hz=100.0)}
 
 
-def _split(sc: Any, settings: SimulationSettings, duration: float, arm: Arm, camera: StereoCamera) -> dict:
-    """Per-step cost of dynamics, outer loop and joint-loop control from one instrumented run."""
-    run = _Run(sc, "ff+fb", True, duration, settings, arm, camera)
-    plant_step, camera_frame = run.plant._step, run._camera_frame
-    acc = {"dynamics": 0.0, "outer": 0.0}
-
-    def timed_step(tau: Any, dt: float) -> Any:
-        t0 = perf_counter()
-        out = plant_step(tau, dt)
-        acc["dynamics"] += perf_counter() - t0
-        return out
-
-    def timed_frame(q_enc: Any) -> Any:
-        t0 = perf_counter()
-        out = camera_frame(q_enc)
-        acc["outer"] += perf_counter() - t0
-        return out
-
-    run.plant._step = timed_step
-    run._camera_frame = timed_frame
-    t0 = perf_counter()
-    run.run(progress=False)
-    total = perf_counter() - t0
-    steps, frames = run.n_steps + 1, run.n_steps // settings.camera_every + 1
-    control = total - acc["dynamics"] - acc["outer"]
+def _split(result: Any, wall: float, settings: SimulationSettings) -> dict:
+    """Per-step cost of dynamics, outer loop and joint-loop control from the loop's phase timing."""
+    phases = result.metadata["phase_seconds"]
+    steps = len(result.t) * settings.record_every  # ticks 0..n recorded every record_every
+    n_ticks = round(result.metadata["duration"] * settings.joint_rate_hz)
+    frames = len(result.frame_t)
+    total = sum(phases.values())
     return {
-        "wall_s": total,
-        "dynamics_us_per_step": acc["dynamics"] / run.n_steps * 1e6,
-        "outer_us_per_frame": acc["outer"] / frames * 1e6,
-        "joint_control_us_per_step": control / steps * 1e6,
-        "fraction": {k: v / total for k, v in (*acc.items(), ("joint_control", control))},
+        "wall_s": wall,
+        "dynamics_us_per_step": phases["plant"] / n_ticks * 1e6,
+        "outer_us_per_frame": phases["frame"] / frames * 1e6,
+        "joint_control_us_per_step": phases["control"] / (n_ticks + 1) * 1e6,
+        "fraction": {"dynamics": phases["plant"] / total, "outer": phases["frame"] / total,
+                     "joint_control": phases["control"] / total},
+        "ticks": n_ticks + 1,
+        "recorded": steps,
     }
 
 
@@ -89,20 +73,22 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     for sc in scenarios.paper_scenarios():
         realtime[sc.name] = {}
         for label, settings in SETTINGS.items():
-            walls = []
+            walls, results = [], []
             for _ in range(args.repeats):
                 t0 = perf_counter()
                 result = ibvs_youla.simulate(sc, "ff+fb", True, args.duration, settings=settings, arm=arm,
                                              camera=camera)
                 walls.append(perf_counter() - t0)
-            wall = float(np.median(walls))
+                results.append(result)
+            median = int(np.argsort(walls)[len(walls) // 2])
+            wall = walls[median]
             realtime[sc.name][label] = args.duration / wall
             cases[f"{sc.name}/{label}"] = {
                 "wall_median_s": wall,
                 "wall_s": walls,
                 "status": result.metadata["status"],
                 "update_time_median_us": float(np.median(result.update_time) * 1e6),
-                "split": _split(sc, settings, args.duration, arm, camera),
+                "split": _split(results[median], wall, settings),
             }
             c = cases[f"{sc.name}/{label}"]
             f = c["split"]["fraction"]

@@ -26,19 +26,11 @@ def synthetic_result(
     pose[:, 0, 3] = camera_x_m
     return SimulationResult(
         t=np.linspace(0.0, duration, n),
-        q=q,
-        q_true=q,
-        dq=zeros,
-        q_ref=q,
-        q_ff=zeros,
-        q_fb=q,
-        tau=zeros,
-        features=features,
-        feature_target=feature_target,
-        feature_error=feature_target - features,
         camera_pose=pose,
         camera_pose_target=np.eye(4),
-        visible=np.ones((n, 3), bool),
-        update_time=np.zeros(0),
+        features=features,
+        feature_target=feature_target,
+        visible=np.ones((n, len(feature_target) // 3), bool),
+        signals={"q": q, "q_true": q, "dq": zeros, "q_ref": q, "q_ff": zeros, "q_fb": q, "tau": zeros},
         metadata={} if metadata is None else metadata,
     )

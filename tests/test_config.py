@@ -13,7 +13,7 @@ from ibvs_youla.config import RunConfig, load_config, parse_config
 from ibvs_youla.exceptions import ConfigError, IbvsYoulaError
 from ibvs_youla.model.camera import StereoCamera
 from ibvs_youla.simulation.settings import SimulationSettings
-from ibvs_youla.simulation.simulate import default_camera
+from ibvs_youla.model.camera import default_camera
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
@@ -126,7 +126,7 @@ def test_settings_keys_cover_every_simulation_setting():
         ({"camera": {"mode": "4K"}}, "camera.mode", "'HD720'"),
         ({"camera": {"lens": "wide"}}, "camera.lens", "preset, mode, frame_rate"),
         ({"arm": {"actuator": "direct"}}, "arm.actuator", "'paper' or 'reflected'"),
-        ({"run": 5}, "run", "controller, adaptive, duration"),
+        ({"run": 5}, "run", "controller, plant, adaptive, duration"),
     ],
 )
 def test_bad_keys_and_values_name_the_key_and_what_is_valid(document, key, valid_fragment):

@@ -33,8 +33,6 @@ from ibvs_youla.model.ik import (
 )
 from ibvs_youla.simulation.integrators import _rk4_arm_step_packed, rk4_arm_step
 from ibvs_youla.simulation.plant import ArmPlant
-from ibvs_youla.simulation.settings import SimulationSettings
-from ibvs_youla.simulation.simulate import _Run
 
 SEED = 20240611
 
@@ -421,83 +419,3 @@ def test_plant_fast_step_raises_the_same_divergence(arm, tau):
         np.testing.assert_array_equal(plant.q_true, np.zeros(6))  # state kept at the failed step's start
     assert str(errors[0]) == str(errors[1])
     assert errors[0].quantity == errors[1].quantity
-
-
-class _ReferenceRun(_Run):
-    """The simulation loop written plainly with the checked public methods (the pre-optimization loop)."""
-
-    def _camera_frame(self, q_enc):
-        T_O_C = self.plant.camera_pose()
-        p = self.eye.features_at_pose(T_O_C)
-        self.p_measured = p
-        self.visible = self.eye.camera.visibility(self.eye.points_in_camera_at_pose(T_O_C)).all_visible
-        e = self.p_target - p
-        if self.adaptive:
-            q_fb = self.outer.update(e, self.eye.jacobian(self._configuration_estimate(p, q_enc)))
-        else:
-            if self.k == 0:
-                q_lin = (self._configuration_estimate(p, q_enc) if self.settings.linearize_at == "start"
-                         else self.scenario.q_target)
-                self.outer.set_jacobian(self.eye.jacobian(q_lin))
-            q_fb = self.outer.update(e)
-        self.recorder.record_update_time(0.0)
-        return q_fb
-
-    def _configuration_estimate(self, p, q_enc):
-        if not self.settings.estimate_from_image:
-            return q_enc
-        use_previous = self.settings.branch_prior == "previous" and self.q_estimate is not None
-        q_near = self.q_estimate if use_previous else q_enc
-        self.q_estimate = self.eye.estimate_q(p, q_near)
-        return self.q_estimate
-
-    def _steps(self, bar):
-        plant, model, inner, dt = self.plant, self.model, self.inner, self.dt
-        q_ff, q_fb = np.zeros(6), self.outer.q_fb
-        self.q_estimate = None
-        for k in range(self.n_steps + 1):
-            self.k = k
-            q_enc, dq = plant.q_encoder, plant.dq
-            if k % self.settings.camera_every == 0:
-                q_fb = self._camera_frame(q_enc)
-            if self.ff is not None:
-                q_ff = self.ff.step()
-            q_ref = q_ff + q_fb
-            v = inner.step(q_ref - q_enc)
-            tau = model.mass_matrix(q_enc) @ v + model.nonlinear_effects(q_enc, dq)
-            if k % self.settings.record_every == 0 or k == self.n_steps:
-                self.recorder.record(k * dt, q=q_enc, q_true=plant.q_true, dq=dq, q_ref=q_ref, q_ff=q_ff,
-                                     q_fb=q_fb, tau=tau, features=self.p_measured,
-                                     camera_pose=plant.camera_pose(), visible=self.visible)
-            if k < self.n_steps:
-                plant.step(tau, dt)
-        return "complete"
-
-
-@pytest.mark.parametrize(
-    ("scenario", "controller", "adaptive", "settings"),
-    [
-        ("paper-1", "ff+fb", True, SimulationSettings.paper()),
-        ("paper-2", "ff+fb", True, SimulationSettings.paper()),
-        ("paper-1", "fb", True, SimulationSettings.paper(branch_prior="previous", record_every=3)),
-        ("paper-2", "fb", False, SimulationSettings.paper()),
-        ("paper-2", "fb", False, SimulationSettings.paper(linearize_at="target")),
-        ("paper-1", "fb", True, SimulationSettings.paper(estimate_from_image=False)),
-        ("paper-1", "ff+fb", True, SimulationSettings()),  # 100 Hz camera
-        ("physical-2", "ff+fb", True, SimulationSettings(feedforward="smooth", saturate=True)),
-    ],
-)
-def test_optimized_simulation_loop_equals_the_plain_loop(arm, camera, scenario, controller, adaptive,
-                                                          settings):
-    sc = scenarios.get(scenario)
-    fast = _Run(sc, controller, adaptive, 0.3, settings, arm, camera).run(False)
-    plain = _ReferenceRun(sc, controller, adaptive, 0.3, settings, arm, camera).run(False)
-    assert fast.metadata["status"] == plain.metadata["status"] == "complete"
-    np.testing.assert_array_equal(fast.t, plain.t)
-    np.testing.assert_array_equal(fast.visible, plain.visible)
-    for name in ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau", "features", "feature_error",
-                 "camera_pose"):
-        a, b = getattr(fast, name), getattr(plain, name)
-        # Rounding differences (RNEA for M v + h, packed RK4, direct LAPACK) stay at round-off relative to
-        # each signal's scale: the paper's 1 ms feedforward drives tau to ~1e7 N m.
-        np.testing.assert_allclose(a, b, rtol=0, atol=1e-10 * max(1.0, np.abs(b).max()), err_msg=name)

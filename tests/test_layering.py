@@ -35,12 +35,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
 # Known violations, being removed by the servo-loop rebuild (they sit in files it rewrites):
 # (importer, imported), each an upward import and/or an edge of a cycle. Delete an entry when its
 # import is gone: the test fails while a listed import is no longer a violation, so this set only shrinks.
-PENDING: frozenset[tuple[str, str]] = frozenset(
-    {
-        # final_pose_error: use ``from .._geometry import pose_error_mm_deg`` instead
-        ("ibvs_youla.simulation.results", "ibvs_youla.analysis.metrics"),
-    }
-)
+PENDING: frozenset[tuple[str, str]] = frozenset()
 
 
 @dataclass(frozen=True)

@@ -21,21 +21,19 @@ def result():
     features = 1e-3 * rng.standard_normal((N, 9))
     target = 1e-3 * rng.standard_normal(9)
     pose = np.eye(4)
+    signals = {name: rng.standard_normal((N, 6)) for name in ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb")}
+    signals["tau"] = 100.0 * rng.standard_normal((N, 6))
     return SimulationResult(
         t=t,
-        q=rng.standard_normal((N, 6)),
-        q_true=rng.standard_normal((N, 6)),
-        dq=rng.standard_normal((N, 6)),
-        q_ref=rng.standard_normal((N, 6)),
-        q_ff=rng.standard_normal((N, 6)),
-        q_fb=rng.standard_normal((N, 6)),
-        tau=100.0 * rng.standard_normal((N, 6)),
-        features=features,
-        feature_target=target,
-        feature_error=target - features,
         camera_pose=np.broadcast_to(pose, (N, 4, 4)),
         camera_pose_target=pose,
+        features=features,
+        feature_target=target,
         visible=np.ones((N, 3), dtype=bool),
+        signals=signals,
+        frame_t=t,
+        frame_features=features,
+        frame_visible=np.ones((N, 3), dtype=bool),
         update_time=np.full(N, 1e-4),
         metadata={
             "scenario": "synthetic",

@@ -23,26 +23,16 @@ def _fill(recorder, n, rng):
         features = rng.normal(size=9)
         if k == 2:
             features[4] = np.nan  # a point behind the camera: NaN is allowed in recorded signals
-        recorder.record(
-            1e-3 * k,
-            q=rng.normal(size=6),
-            q_true=rng.normal(size=6),
-            dq=rng.normal(size=6),
-            q_ref=rng.normal(size=6),
-            q_ff=rng.normal(size=6),
-            q_fb=rng.normal(size=6),
-            tau=rng.normal(size=6),
-            features=features,
-            camera_pose=T,
-            visible=rng.random(3) > 0.5,
-        )
-        recorder.record_update_time(float(rng.random()) * 1e-4)
+        visible = rng.random(3) > 0.5
+        signals = {name: rng.normal(size=6) for name in ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau")}
+        recorder.record(1e-3 * k, T, features, visible, signals)
+        recorder.record_frame(1e-3 * k, features, visible, float(rng.random()) * 1e-4)
 
 
 def _recorder(capacity=4, metadata=None):
     target_pose = _rz(0.3)
     target_pose[:3, 3] = [1.0, 2.0, 3.0]
-    return ResultRecorder(np.linspace(-1e-3, 1e-3, 9), target_pose, capacity, metadata=metadata)
+    return ResultRecorder(np.linspace(-1e-3, 1e-3, 9), target_pose, capacity, n_points=3, metadata=metadata)
 
 
 def test_recorder_grows_past_capacity_and_computes_feature_error():
@@ -103,11 +93,15 @@ def test_save_load_round_trip_is_exact_with_and_without_suffix(tmp_path):
             "camera_pose",
             "camera_pose_target",
             "visible",
+            "frame_t",
+            "frame_features",
+            "frame_visible",
             "update_time",
         ):
             np.testing.assert_array_equal(getattr(back, field), getattr(res, field), err_msg=field)
             assert getattr(back, field).dtype == getattr(res, field).dtype
         assert back.metadata == res.metadata
+        assert back.signals.keys() == res.signals.keys()
     assert res.metadata["rates_hz"] == [1000.0, 100.0]
     assert res.metadata["gain"] == 0.1 / 3
     assert res.metadata["settings"]["q"] == [0.1, 1 / 3]
@@ -139,19 +133,56 @@ def test_bad_input_raises():
         res.final_feature_error  # noqa: B018
     with pytest.raises(InvalidParameterError, match="path"):
         SimulationResult.load("/nonexistent/run")
-    fields = {f: np.zeros((2, 6)) for f in ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau")}
     with pytest.raises(InvalidArrayError, match="features"):
         SimulationResult(
             t=np.zeros(2),
-            **fields,
-            features=np.zeros((2, 8)),
-            feature_target=np.zeros(9),
-            feature_error=np.zeros((2, 9)),
             camera_pose=np.tile(np.eye(4), (2, 1, 1)),
             camera_pose_target=np.eye(4),
+            features=np.zeros((2, 8)),
+            feature_target=np.zeros(9),
             visible=np.ones((2, 3), bool),
-            update_time=np.zeros(0),
         )
+    with pytest.raises(InvalidArrayError, match="signals\\['q'\\]"):
+        SimulationResult(
+            t=np.zeros(2),
+            camera_pose=np.tile(np.eye(4), (2, 1, 1)),
+            camera_pose_target=np.eye(4),
+            features=np.zeros((2, 9)),
+            feature_target=np.zeros(9),
+            visible=np.ones((2, 3), bool),
+            signals={"q": np.zeros((3, 6))},
+        )
+    with pytest.raises(InvalidParameterError, match="status"):
+        _recorder().result(status="finished")
+    rec = _recorder()
+    rec.record(0.0, np.eye(4), np.zeros(9), np.ones(3, bool), {"q": np.zeros(6)})
+    with pytest.raises(InvalidParameterError, match="signals"):
+        rec.record(1e-3, np.eye(4), np.zeros(9), np.ones(3, bool), {"dq": np.zeros(6)})
+    with pytest.raises(AttributeError, match="no attribute or signal 'q_ff'; signals: q"):
+        rec.result().q_ff  # noqa: B018
+
+
+def test_a_file_saved_in_format_1_loads_with_every_signal():
+    """tests/regression/result_v1.npz was saved before the servo-loop rebuild (fixed three-marker schema)."""
+    import json
+    from pathlib import Path
+
+    path = Path(__file__).parent / "regression" / "result_v1.npz"
+    with np.load(path) as raw:
+        header = json.loads(str(raw["__metadata__"]))
+        stored = {name: raw[name] for name in raw.files if name != "__metadata__"}
+    assert header["format_version"] == 1
+    res = SimulationResult.load(path)
+    for name in ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau"):
+        np.testing.assert_array_equal(getattr(res, name), stored[name], err_msg=name)
+    for name in ("t", "features", "feature_target", "camera_pose", "camera_pose_target", "visible", "update_time"):
+        np.testing.assert_array_equal(getattr(res, name), stored[name], err_msg=name)
+    np.testing.assert_array_equal(res.feature_error, stored["feature_error"])
+    assert len(res) == 11 and res.frame_t.shape == (0,) and res.update_time.shape == (6,)
+    assert res.status == "complete" and res.metadata["plant"] == "dynamic"
+    assert res.metadata["controller"] == "ff+fb" and res.n_points == 3
+    mm, deg = res.final_pose_error()
+    assert np.isfinite(mm) and np.isfinite(deg)
 
 
 def test_software_versions_are_json_strings():

@@ -108,12 +108,14 @@ def test_validation_errors_say_what_was_received():
     with pytest.raises(InvalidArrayError, match="q_target: received non-finite"):
         Scenario(q, np.full(6, np.nan), m)
     with pytest.raises(InvalidArrayError, match="markers_O"):
-        Scenario(q, q, np.zeros((4, 3)))
+        Scenario(q, q, np.zeros((4, 2)))
+    with pytest.raises(InvalidArrayError, match="markers_O: received 2 points"):
+        Scenario(q, q, np.eye(3)[:2])
     with pytest.raises(InvalidArrayError, match="joint_offset"):
         Scenario(q, q, m, joint_offset=np.zeros(7))
     with pytest.raises(DegenerateMarkersError, match="collinear"):
         Scenario(q, q, [[0, 0, 0], [1, 1, 1], [2, 2, 2.0]])
-    with pytest.raises(DegenerateMarkersError, match="coincident"):
+    with pytest.raises(DegenerateMarkersError, match="coincide"):
         Scenario(q, q, np.ones((3, 3)))
     with pytest.raises(InvalidParameterError, match="virtual_points"):
         Scenario(q, q, m, virtual_points="yes")

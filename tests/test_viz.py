@@ -208,11 +208,11 @@ def _straight_run(arm: Arm, sc: scenarios.Scenario, duration: float) -> Simulati
     q = (1 - s) * sc.q_start + s * sc.q_target
     n, zeros = len(t), np.zeros((len(t), 6))
     return SimulationResult(
-        t=t, q=q, q_true=q, dq=zeros, q_ref=q, q_ff=zeros, q_fb=q, tau=zeros,
-        features=np.zeros((n, 9)), feature_target=np.zeros(9), feature_error=np.zeros((n, 9)),
-        camera_pose=np.array([arm.camera_pose(qi) for qi in q]),
-        camera_pose_target=arm.camera_pose(sc.q_target),
-        visible=np.ones((n, 3), bool), update_time=np.zeros(1), metadata={"markers_O": sc.markers_O.tolist()},
+        t=t, camera_pose=np.array([arm.camera_pose(qi) for qi in q]),
+        camera_pose_target=arm.camera_pose(sc.q_target), features=np.zeros((n, 9)), feature_target=np.zeros(9),
+        visible=np.ones((n, 3), bool),
+        signals={"q": q, "q_true": q, "dq": zeros, "q_ref": q, "q_ff": zeros, "q_fb": q, "tau": zeros},
+        metadata={"markers_O": sc.markers_O.tolist()},
     )
 
 

@@ -16,7 +16,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from ._validation import as_pose
 
@@ -69,4 +68,6 @@ def pose_error_series_mm_deg(T_O_A: np.ndarray, T_O_B: np.ndarray) -> tuple[np.n
 
 def exp_twist(xi: np.ndarray) -> np.ndarray:
     """Return the 4x4 pose exp([v; w]) of a twist (linear part first, as Pinocchio)."""
+    import pinocchio as pin  # here, so that importing results (and viz) does not load Pinocchio
+
     return pin.exp6(pin.Motion(np.asarray(xi, dtype=float))).homogeneous

@@ -26,7 +26,8 @@ invalid value raises :class:`~ibvs_youla.exceptions.ConfigError` naming the key
     # model_inertia_scale, saturate, estimate_from_image, branch_prior, record_every
 
     [run]
-    controller = "ff+fb"           # or "fb"
+    controller = "ff+fb"           # a name of ibvs_youla.controllers.names(): "ff+fb", "fb", ...
+    plant = "dynamic"              # or "kinematic", "free-camera"
     adaptive = true                # false: J evaluated once (settings.linearize_at)
     duration = 10.0                # [s]
 
@@ -63,7 +64,7 @@ from .exceptions import (
     InvalidArrayError,
     InvalidParameterError,
 )
-from .model.camera import ZED_MODES
+from .model.camera import ZED_MODES, default_camera
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -141,7 +142,7 @@ def _points(key: str, value: Any) -> np.ndarray:
 
 
 def _settings_keys() -> dict[str, Check]:
-    from .simulation.settings import BRANCH_PRIORS, FEEDFORWARD_KINDS, LINEARIZE_AT
+    from .controllers.youla import BRANCH_PRIORS, FEEDFORWARD_KINDS, LINEARIZE_AT
 
     return {
         "preset": _choice(*SETTINGS_PRESETS),
@@ -176,9 +177,15 @@ _SCENARIO_KEYS: dict[str, Check] = {
 
 
 def _run_keys() -> dict[str, Check]:
-    from .simulation.simulate import CONTROLLERS
+    from . import controllers
+    from .simulation.simulate import PLANTS
 
-    return {"controller": _choice(*CONTROLLERS), "adaptive": _boolean, "duration": _number}
+    return {
+        "controller": _choice(*controllers.names()),
+        "plant": _choice(*PLANTS),  # the simulator's plants
+        "adaptive": _boolean,
+        "duration": _number,
+    }
 
 
 _CAMERA_KEYS: dict[str, Check] = {
@@ -237,7 +244,8 @@ class RunConfig:
     Attributes:
         scenario: The ``[scenario]`` table as a Scenario, or None without that table.
         settings: ``[settings]`` over its preset (``SimulationSettings()`` or ``.paper()``).
-        controller: ``[run] controller`` (``"fb"``/``"ff+fb"``) or None.
+        controller: ``[run] controller`` (a registered name, ``controllers.names()``) or None.
+        plant: ``[run] plant`` (``"dynamic"``, ``"kinematic"``, ``"free-camera"``) or None.
         adaptive: ``[run] adaptive`` or None.
         duration: ``[run] duration`` [s] or None.
         camera_options: Keyword arguments of ``StereoCamera.zed2`` from ``[camera]``.
@@ -248,6 +256,7 @@ class RunConfig:
     scenario: Scenario | None
     settings: SimulationSettings
     controller: str | None = None
+    plant: str | None = None
     adaptive: bool | None = None
     duration: float | None = None
     camera_options: Mapping[str, Any] = dataclasses.field(default_factory=dict)
@@ -256,8 +265,6 @@ class RunConfig:
 
     def make_camera(self) -> StereoCamera:
         """The stereo camera of ``[camera]`` (default: ``simulate``'s, the paper's ZED 2 in VGA mode)."""
-        from .simulation.simulate import default_camera
-
         try:
             return default_camera(**self.camera_options)
         except InvalidParameterError as err:  # e.g. a frame rate the mode does not offer
@@ -347,6 +354,7 @@ def parse_config(
         scenario=_scenario(scenario_values) if "scenario" in data else None,
         settings=_settings(settings_values, _choice(*SETTINGS_PRESETS)("settings_preset", settings_preset)),
         controller=run.get("controller"),
+        plant=run.get("plant"),
         adaptive=run.get("adaptive"),
         duration=run.get("duration"),
         camera_options=_table(data, "camera", _CAMERA_KEYS),

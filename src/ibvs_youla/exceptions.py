@@ -18,6 +18,7 @@ __all__ = [
     "ConfigError",
     "DegenerateMarkersError",
     "IbvsYoulaError",
+    "IncompatibleCommandError",
     "InvalidArrayError",
     "InvalidDisparityError",
     "InvalidParameterError",
@@ -196,6 +197,22 @@ class SimulationDivergedError(IbvsYoulaError):
         self.value = value
         self.bound = bound
         self.partial = partial
+        super().__init__(message)
+
+
+class IncompatibleCommandError(IbvsYoulaError, ValueError):
+    """A controller's command cannot drive a plant: no actuation converts it to what the plant accepts.
+
+    Attributes:
+        command_type: What the controller commands (e.g. ``"joint_position"``).
+        plant: The plant's name (e.g. ``"free-camera"``).
+        accepted: What the plant accepts.
+    """
+
+    def __init__(self, command_type: str, plant: str, accepted: Any, message: str) -> None:
+        self.command_type = command_type
+        self.plant = plant
+        self.accepted = accepted
         super().__init__(message)
 
 

@@ -44,7 +44,8 @@ from typing import Any
 import numpy as np
 
 from ._validation import as_array, as_pose
-from .exceptions import DegenerateMarkersError, InvalidParameterError, JointLimitError
+from .estimation.stereo_pose import check_marker_geometry
+from .exceptions import InvalidParameterError, JointLimitError
 
 __all__ = [
     "NAMES",
@@ -74,7 +75,6 @@ _PHYSICAL_MARKERS_O = {  # place_markers(arm.camera_pose(q_target), ...) rounded
     1: ((3.287, -0.661, 1.932), (3.617, -0.957, 0.559), (4.372, 0.263, 1.124)),
     2: ((1.150, 1.225, 0.250), (1.170, 0.745, 0.150), (0.762, 1.000, 0.050)),
 }
-_COLLINEAR_TOL = 1e-6  # smallest / largest singular value of the centred marker triangle
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -87,52 +87,103 @@ def _frozen(a: np.ndarray) -> np.ndarray:
 class Scenario:
     """One servoing task, validated at construction; arrays are stored read-only.
 
+    An arm scenario gives joint configurations (``q_start``, ``q_target``); a free-flying
+    camera scenario (:meth:`free_camera`) gives camera poses instead. An arm scenario can
+    also run on the free-flying camera: its poses are then the arm's forward kinematics.
+
     Attributes:
-        q_start: Initial encoder joint angles (6,) [rad].
-        q_target: True joint angles of the target camera pose (6,) [rad].
-        markers_O: Three marker positions in the base frame, one per row (3, 3) [m].
+        q_start: Initial encoder joint angles (6,) [rad], or ``None`` without an arm.
+        q_target: True joint angles of the target camera pose (6,) [rad], or ``None``.
+        markers_O: Marker positions in the base frame, one per row (n, 3), n >= 3 [m]
+            (the paper uses three; a monocular camera needs four or more).
         joint_offset: Disturbance ``d`` (6,) [rad]: true angles = encoder + d (ERRATA 14);
             ``None`` is stored as zeros.
         name: Short identifier, e.g. ``"paper-1"``.
         virtual_points: Project markers even when behind the camera or out of view (ERRATA 13).
         description: Free text.
+        T_O_C_start: Initial camera pose (4, 4) of a free-camera scenario, else ``None``.
+        T_O_C_target: Target camera pose (4, 4) of a free-camera scenario, else ``None``.
 
     Raises:
         InvalidArrayError: wrong shape or non-finite entries.
         DegenerateMarkersError: coincident or collinear markers.
-        InvalidParameterError: ``name``/``description`` not strings, ``virtual_points`` not bool.
+        InvalidParameterError: neither joints nor camera poses (or both), ``name`` or
+            ``description`` not strings, ``virtual_points`` not bool.
     """
 
-    q_start: np.ndarray
-    q_target: np.ndarray
-    markers_O: np.ndarray
+    q_start: np.ndarray | None = None
+    q_target: np.ndarray | None = None
+    markers_O: np.ndarray | None = None
     joint_offset: np.ndarray | None = None
     name: str = ""
     virtual_points: bool = False
     description: str = ""
+    T_O_C_start: np.ndarray | None = None
+    T_O_C_target: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
-        set_(self, "q_start", _frozen(as_array(self.q_start, "q_start", (6,))))
-        set_(self, "q_target", _frozen(as_array(self.q_target, "q_target", (6,))))
+        joints = (self.q_start is not None, self.q_target is not None)
+        poses = (self.T_O_C_start is not None, self.T_O_C_target is not None)
+        if joints == (True, True) and poses == (False, False):
+            set_(self, "q_start", _frozen(as_array(self.q_start, "q_start", (6,))))
+            set_(self, "q_target", _frozen(as_array(self.q_target, "q_target", (6,))))
+        elif joints == (False, False) and poses == (True, True):
+            set_(self, "T_O_C_start", _frozen(as_pose(self.T_O_C_start, "T_O_C_start")))
+            set_(self, "T_O_C_target", _frozen(as_pose(self.T_O_C_target, "T_O_C_target")))
+        else:
+            raise InvalidParameterError(
+                "scenario", f"q_start/q_target given: {joints}, T_O_C_start/T_O_C_target given: {poses}",
+                "both joint configurations (an arm scenario) or both camera poses (a free-camera scenario)",
+            )
         offset = np.zeros(6) if self.joint_offset is None else self.joint_offset
         set_(self, "joint_offset", _frozen(as_array(offset, "joint_offset", (6,))))
-        markers = as_array(self.markers_O, "markers_O", (3, 3))
-        singular = np.linalg.svd(markers - markers.mean(axis=0), compute_uv=False)
-        if singular[0] == 0.0 or singular[1] / singular[0] < _COLLINEAR_TOL:
-            ratio = 0.0 if singular[0] == 0.0 else singular[1] / singular[0]
-            raise DegenerateMarkersError(
-                markers,
-                f"markers_O: received {markers.tolist()} (coincident or collinear: singular value "
-                f"ratio {ratio:.2e}); expected three non-collinear points (ratio >= {_COLLINEAR_TOL:g})",
-            )
-        set_(self, "markers_O", _frozen(markers))
+        if self.markers_O is None:
+            raise InvalidParameterError("markers_O", None, "marker positions (n, 3), n >= 3 [m]")
+        set_(self, "markers_O", _frozen(check_marker_geometry(self.markers_O, "markers_O")))
         for field_name in ("name", "description"):
             if not isinstance(getattr(self, field_name), str):
                 raise InvalidParameterError(field_name, getattr(self, field_name), "a string")
         if not isinstance(self.virtual_points, (bool, np.bool_)):
             raise InvalidParameterError("virtual_points", self.virtual_points, "True or False")
         set_(self, "virtual_points", bool(self.virtual_points))
+
+    @classmethod
+    def free_camera(
+        cls,
+        T_O_C_start: Any,
+        T_O_C_target: Any,
+        markers_O: Any,
+        *,
+        name: str = "free-camera",
+        virtual_points: bool = False,
+        description: str = "",
+    ) -> Scenario:
+        """A camera with no arm: start and target poses (4, 4) and markers (n, 3) in the base frame [m]."""
+        return cls(
+            markers_O=markers_O, name=name, virtual_points=virtual_points, description=description,
+            T_O_C_start=T_O_C_start, T_O_C_target=T_O_C_target,
+        )
+
+    @property
+    def has_joints(self) -> bool:
+        """True for an arm scenario (joint configurations given), False for a free-camera one."""
+        return self.q_start is not None
+
+    @property
+    def n_points(self) -> int:
+        """Number of markers n."""
+        return int(self.markers_O.shape[0])  # type: ignore[union-attr]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data (lists, strings), e.g. for a result's run specification."""
+        out: dict[str, Any] = {"name": self.name, "description": self.description,
+                               "virtual_points": self.virtual_points}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, np.ndarray):
+                out[f.name] = value.tolist()
+        return out
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Scenario):
@@ -151,12 +202,20 @@ class Scenario:
     @property
     def q_true_start(self) -> np.ndarray:
         """True joint angles at the start, ``q_start + d`` (6,) [rad]."""
-        return self.q_start + self.joint_offset
+        return self._joints("q_true_start")[0] + self.joint_offset
 
     @property
     def q_encoder_goal(self) -> np.ndarray:
         """Encoder reading when the camera is at its target pose, ``q_target - d`` (6,) [rad]."""
-        return self.q_target - self.joint_offset
+        return self._joints("q_encoder_goal")[1] - self.joint_offset
+
+    def _joints(self, what: str) -> tuple[np.ndarray, np.ndarray]:
+        if self.q_start is None or self.q_target is None:
+            raise InvalidParameterError(
+                "scenario", f"free-camera scenario {self.name!r} (asked for {what})",
+                "an arm scenario with q_start and q_target",
+            )
+        return self.q_start, self.q_target
 
     def validate_for(self, arm: Any) -> Scenario:
         """Check every configuration the run is meant to visit against the arm's joint limits.
@@ -170,6 +229,7 @@ class Scenario:
         Raises:
             JointLimitError: naming the configuration, the joints and their limits [deg].
         """
+        self._joints("a check against joint limits")
         q_min, q_max = np.asarray(arm.q_min, dtype=float), np.asarray(arm.q_max, dtype=float)
         for label, q in (
             ("q_start", self.q_start),

@@ -142,11 +142,6 @@ def final_error(y: Any, y_final: Any) -> np.ndarray:
     return np.asarray(y_final, dtype=float) - y[-1]
 
 
-# Transitional, not in __all__: simulation/results.py still imports this name (an upward import,
-# PENDING in tests/test_layering.py); delete it when that file imports pose_error_mm_deg from _geometry.
-pose_error = pose_error_mm_deg
-
-
 def peak_with_ratio(x: Any, limit: Any = None) -> tuple[np.ndarray, np.ndarray | None]:
     """Peak absolute value per column and its ratio to a limit.
 

@@ -6,8 +6,9 @@ import argparse
 from pathlib import Path
 from typing import NoReturn
 
-from .. import __version__
+from .. import __version__, controllers
 from .. import scenarios as _scenarios
+from ..simulation.simulate import PLANTS
 from . import bench, design, reproduce, simulate, view
 from .base import PROG, UsageError
 
@@ -173,8 +174,14 @@ def _add_run_options(p: argparse.ArgumentParser, names: str) -> None:
     )
     p.add_argument(
         "--controller",
-        choices=("fb", "ff+fb"),
-        help="feedback only or feedforward + feedback (default ff+fb)",
+        choices=controllers.names(),
+        metavar="NAME",
+        help=f"one of {', '.join(controllers.names())} (default ff+fb: the paper's feedforward + feedback)",
+    )
+    p.add_argument(
+        "--plant",
+        choices=PLANTS,
+        help="dynamic (default: the arm's rigid-body dynamics), kinematic (ideal inner loop) or free-camera",
     )
     loop = p.add_mutually_exclusive_group()
     loop.add_argument(

@@ -20,7 +20,7 @@ from .base import PROG, UsageError, load_optional_config, one_line
 def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any]:
     """Scenario, simulate() keyword arguments, arm and camera from --scenario/--config/flags."""
     from ..model.arm import Arm
-    from ..simulation.simulate import default_camera
+    from ..model.camera import default_camera
 
     cfg = load_optional_config(args.config)
     if args.scenario is not None:
@@ -41,6 +41,7 @@ def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any
 
     kwargs = {
         "controller": pick(args.controller, "controller", "ff+fb"),
+        "plant": pick(getattr(args, "plant", None), "plant", "dynamic"),
         "adaptive": pick(args.adaptive, "adaptive", True),
         "duration": pick(args.duration, "duration", 10.0),
         "settings": None if cfg is None else cfg.settings,

@@ -17,7 +17,7 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
         raise _ViewUnavailable(err) from None
     from ..scenarios import Scenario
     from ..simulation.results import SimulationResult
-    from ..simulation.simulate import default_camera
+    from ..model.camera import default_camera
 
     if args.result is not None:
         if args.scenario or args.config:

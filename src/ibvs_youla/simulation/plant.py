@@ -43,7 +43,8 @@ from typing import Any
 import numpy as np
 
 from .._validation import as_array, positive
-from ..exceptions import SimulationDivergedError
+from ..controllers.base import CommandType, JointReading
+from ..exceptions import InvalidParameterError, SimulationDivergedError
 from .integrators import _rk4_arm_step_packed, rk4_arm_step
 
 __all__ = ["ArmPlant", "DivergenceBounds"]
@@ -68,6 +69,10 @@ class DivergenceBounds:
 
 class ArmPlant:
     """Simulated arm with encoder offset, optional saturation and divergence checks.
+
+    As the dynamic-arm plant of the servo loop it accepts a joint torque held over each
+    step (:meth:`apply`), reads its encoders (:meth:`reading`) and records ``q`` (encoders),
+    ``q_true`` and ``dq``.
 
     Args:
         arm: The arm model (``forward_dynamics``, ``q_min``, ``q_max``, ``dq_max``,
@@ -150,12 +155,38 @@ class ArmPlant:
         return self._dq.copy()
 
     def camera_pose(self) -> np.ndarray:
-        """True camera pose ``T_O_C`` (4, 4): ``arm.camera_pose(q_true)``."""
-        return self.arm.camera_pose(self._q)
+        """True camera pose ``T_O_C`` (4, 4): ``arm.camera_pose(q_true)``.
 
-    def _camera_pose(self) -> np.ndarray:
-        """`camera_pose` through the arm's unchecked twin when it has one (the state is finite)."""
+        The state is the plant's own and finite (checked after every step), so the arm's
+        unchecked forward kinematics is called when it has one.
+        """
         return self._camera_pose_unchecked(self._q)
+
+    # ------------------------------------------------------------------ servo-loop role
+    name = "dynamic"
+    accepts = (CommandType.JOINT_TORQUE,)
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joints n."""
+        return self._n
+
+    def use_input(self, command_type: CommandType) -> None:
+        """The dynamic arm takes joint torques only; anything else raises InvalidParameterError."""
+        if command_type is not CommandType.JOINT_TORQUE:
+            raise InvalidParameterError("command_type", command_type, "joint_torque (the dynamic arm's input)")
+
+    def reading(self) -> JointReading:
+        """Encoder reading now: ``q_true - d`` and ``dq`` (arrays the plant replaces, never modifies)."""
+        return JointReading(self.t, self._q - self.joint_offset, self._dq)
+
+    def apply(self, command: np.ndarray, dt: float) -> None:
+        """Hold the joint torque ``command`` (n,) [N m] over ``dt`` (RK4, see :meth:`step`)."""
+        self._step(command, dt)
+
+    def signals(self) -> dict[str, np.ndarray]:
+        """Plant signals recorded at tick rate: ``q`` (encoders), ``q_true``, ``dq``."""
+        return {"q": self._q - self.joint_offset, "q_true": self._q, "dq": self._dq}
 
     # ------------------------------------------------------------------ dynamics
     def step(self, tau: Any, dt: float) -> np.ndarray:

@@ -17,27 +17,16 @@ from typing import Any
 
 import numpy as np
 
+from .._geometry import pose_error_mm_deg
 from .._validation import as_array, as_pose
 from ..exceptions import InvalidArrayError, InvalidParameterError
 
-__all__ = ["ResultRecorder", "SimulationResult", "software_versions"]
+__all__ = ["STATUSES", "ResultRecorder", "SimulationResult", "software_versions"]
 
-FORMAT_VERSION = 1
-
-# name -> trailing shape of one sample (None = length of the joint vector, 6 for the IRB 4600)
-_SAMPLE_SHAPES: dict[str, tuple[int | None, ...]] = {
-    "q": (None,),
-    "q_true": (None,),
-    "dq": (None,),
-    "q_ref": (None,),
-    "q_ff": (None,),
-    "q_fb": (None,),
-    "tau": (None,),
-    "features": (9,),
-    "feature_error": (9,),
-    "camera_pose": (4, 4),
-    "visible": (3,),
-}
+FORMAT_VERSION = 2  # 1: fixed three-marker stereo schema with q_ff/q_fb fields (still loads)
+STATUSES = ("complete", "markers_lost", "estimate_failed", "diverged", "interrupted")
+_LEGACY_SIGNALS = ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau")  # format 1's joint signals
+_SIGNAL_PREFIX = "signal/"
 
 
 def software_versions() -> dict[str, str]:
@@ -77,70 +66,120 @@ def _normalise_metadata(metadata: Any) -> dict[str, Any]:
 
 @dataclass(frozen=True, eq=False)
 class SimulationResult:
-    """Signals of one simulated run, sampled at times ``t``.
+    """Signals of one simulated run, whatever the controller, plant and camera.
 
-    Joint vectors are (N, n) with n = 6 for the IRB 4600. NaN is allowed in recorded
-    signals (e.g. features of a point behind the camera); shapes are checked.
+    Tick-rate samples (N, at times ``t``) hold the true camera pose, the last image features
+    and visibility (held between frames), and named ``signals``: the plant's (``q``
+    encoders, ``q_true``, ``dq`` on an arm), each command along the actuation chain
+    (``camera_twist``, ``dq_ref``, ``q_ref``, ``tau``), and what the controller declares
+    (``q_ff``, ``q_fb`` for the paper's). Each signal reads as an attribute too
+    (``result.q_ff``). The frame log (M frames) holds capture times, features, visibility
+    and the compute time of each control update. NaN is allowed in recorded signals;
+    shapes are checked.
 
     Attributes:
         t: Sample times (N,) [s].
-        q: Encoder joint angles (N, n) [rad] (what the controller sees).
-        q_true: True joint angles (N, n) [rad]; ``q_true = q + d`` (ERRATA 14).
-        dq: Joint velocities (N, n) [rad/s].
-        q_ref: Inner-loop reference ``q_ff + q_fb`` (N, n) [rad].
-        q_ff: Feedforward reference (N, n) [rad] (zeros for a feedback-only run).
-        q_fb: Feedback (outer-loop) reference (N, n) [rad].
-        tau: Joint torques applied (N, n) [N m].
-        features: Measured stereo features (N, 9) [m on the sensor], point-major Eq. (24).
-        feature_target: Target features (9,) [m on the sensor].
-        feature_error: ``feature_target - features`` (N, 9) [m on the sensor].
         camera_pose: True camera pose ``T_O_C`` (N, 4, 4) [m].
         camera_pose_target: Target camera pose ``T_O_C`` (4, 4) [m].
-        visible: Per-marker physical visibility (N, 3) (depth sign, field of view, depth range).
-        update_time: Wall-clock compute time of each control update (M,) [s].
-        metadata: JSON-serialisable dict: scenario name, controller ("fb" / "ff+fb"),
-            adaptive flag, rates, settings, versions, ``"status"`` of the run. Stored
-            JSON-normalised (tuples become lists) so that save/load round-trips exactly.
+        features: Last measured features (N, m), point-major: [u_l, u_r, v] per point for a
+            stereo camera (Eq. (24)), [u, v] for a monocular one [m on the sensor].
+        feature_target: Target features (m,).
+        visible: Per-point physical visibility (N, n) (depth sign, field of view, depth range).
+        signals: Name -> (N, ...) array (see above).
+        frame_t: Capture time of each camera frame (M,) [s].
+        frame_features: Features of each frame (M, m).
+        frame_visible: Visibility of each frame (M, n).
+        update_time: Wall-clock compute time of each control update (M,) [s]. Files of
+            format 1 have no frame log: then ``frame_t`` is empty and only this is kept.
+        metadata: JSON-serialisable dict: ``"status"`` (one of :data:`STATUSES`),
+            ``"spec"`` (the full run specification), scenario, controller, plant, rates,
+            settings, versions. Stored JSON-normalised so save/load round-trips exactly.
     """
 
     t: np.ndarray
-    q: np.ndarray
-    q_true: np.ndarray
-    dq: np.ndarray
-    q_ref: np.ndarray
-    q_ff: np.ndarray
-    q_fb: np.ndarray
-    tau: np.ndarray
-    features: np.ndarray
-    feature_target: np.ndarray
-    feature_error: np.ndarray
     camera_pose: np.ndarray
     camera_pose_target: np.ndarray
+    features: np.ndarray
+    feature_target: np.ndarray
     visible: np.ndarray
-    update_time: np.ndarray
+    signals: dict[str, np.ndarray] = field(default_factory=dict)
+    frame_t: np.ndarray | None = None
+    frame_features: np.ndarray | None = None
+    frame_visible: np.ndarray | None = None
+    update_time: np.ndarray | None = None
     metadata: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        set_ = object.__setattr__
         t = as_array(self.t, "t", (None,))
-        n_samples = t.shape[0]
-        object.__setattr__(self, "t", t)
-        q = as_array(self.q, "q", (n_samples, None), finite=False)
-        n_joints = q.shape[1]
-        for name, tail in _SAMPLE_SHAPES.items():
-            shape = (n_samples, *(n_joints if s is None else s for s in tail))
-            value = self.visible if name == "visible" else as_array(getattr(self, name), name, finite=False)
-            value = np.asarray(value, dtype=bool if name == "visible" else float)
-            if value.shape != shape:
-                raise InvalidArrayError(name, f"an array of shape {value.shape}", f"shape {shape}")
-            object.__setattr__(self, name, value)
-        object.__setattr__(self, "feature_target", as_array(self.feature_target, "feature_target", (9,)))
-        object.__setattr__(self, "camera_pose_target", as_pose(self.camera_pose_target, "camera_pose_target"))
-        object.__setattr__(self, "update_time", as_array(self.update_time, "update_time", (None,)))
-        object.__setattr__(self, "metadata", _normalise_metadata(self.metadata))
+        n = t.shape[0]
+        set_(self, "t", t)
+        target = as_array(self.feature_target, "feature_target", (None,))
+        m = target.shape[0]
+        set_(self, "feature_target", target)
+        set_(self, "camera_pose_target", as_pose(self.camera_pose_target, "camera_pose_target"))
+        set_(self, "camera_pose", _shaped(self.camera_pose, "camera_pose", (n, 4, 4)))
+        set_(self, "features", _shaped(self.features, "features", (n, m)))
+        visible = np.asarray(self.visible, dtype=bool)
+        if visible.ndim != 2 or visible.shape[0] != n:
+            raise InvalidArrayError("visible", f"an array of shape {visible.shape}", f"shape ({n}, n_points)")
+        set_(self, "visible", visible)
+        n_points = visible.shape[1]
+        if not isinstance(self.signals, dict):
+            raise InvalidParameterError("signals", type(self.signals).__name__, "a dict name -> (N, ...) array")
+        signals = {}
+        for name, value in self.signals.items():
+            arr = as_array(value, f"signals[{name!r}]", finite=False)
+            if arr.ndim == 0 or arr.shape[0] != n:
+                raise InvalidArrayError(f"signals[{name!r}]", f"an array of shape {arr.shape}", f"({n}, ...)")
+            signals[str(name)] = arr
+        set_(self, "signals", signals)
+        frame_t = np.zeros(0) if self.frame_t is None else as_array(self.frame_t, "frame_t", (None,))
+        k = frame_t.shape[0]
+        set_(self, "frame_t", frame_t)
+        frame_features = np.zeros((k, m)) if self.frame_features is None else self.frame_features
+        set_(self, "frame_features", _shaped(frame_features, "frame_features", (k, m)))
+        frame_visible = np.ones((k, n_points), bool) if self.frame_visible is None else self.frame_visible
+        frame_visible = np.asarray(frame_visible, dtype=bool)
+        if frame_visible.shape != (k, n_points):
+            raise InvalidArrayError("frame_visible", f"an array of shape {frame_visible.shape}",
+                                    f"shape ({k}, {n_points})")
+        set_(self, "frame_visible", frame_visible)
+        update_time = np.zeros(k) if self.update_time is None else as_array(self.update_time, "update_time", (None,))
+        if k and update_time.shape != (k,):
+            raise InvalidArrayError("update_time", f"an array of shape {update_time.shape}", f"shape ({k},)")
+        set_(self, "update_time", update_time)
+        set_(self, "metadata", _normalise_metadata(self.metadata))
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        """A recorded signal by name, e.g. ``result.q`` or ``result.q_ff``."""
+        if name.startswith("__") or name == "signals":
+            raise AttributeError(name)
+        signals = self.__dict__.get("signals", {})
+        if name in signals:
+            return signals[name]
+        raise AttributeError(
+            f"{type(self).__name__} has no attribute or signal {name!r}; signals: {', '.join(signals) or 'none'}"
+        )
 
     # ------------------------------------------------------------------ convenience
     def __len__(self) -> int:
         return int(self.t.shape[0])
+
+    @property
+    def n_points(self) -> int:
+        """Number of markers n."""
+        return int(self.visible.shape[1])
+
+    @property
+    def status(self) -> str:
+        """How the run ended (``metadata["status"]``; ``"complete"`` when absent)."""
+        return str(self.metadata.get("status", "complete"))
+
+    @property
+    def feature_error(self) -> np.ndarray:
+        """``feature_target - features`` (N, m)."""
+        return self.feature_target - self.features
 
     @property
     def duration(self) -> float:
@@ -149,22 +188,27 @@ class SimulationResult:
 
     @property
     def final_feature_error(self) -> np.ndarray:
-        """Last sample of ``feature_target - features`` (9,) [m on the sensor]."""
+        """Last sample of ``feature_target - features`` (m,)."""
         self._require_samples("final_feature_error")
-        return self.feature_error[-1].copy()
+        return self.feature_target - self.features[-1]
 
     def final_pose_error(self) -> tuple[float, float]:
         """Distance between the last camera pose and the target: (position [mm], rotation [deg])."""
-        from ..analysis.metrics import pose_error
-
         self._require_samples("final_pose_error")
-        return pose_error(self.camera_pose[-1], self.camera_pose_target)
+        return pose_error_mm_deg(self.camera_pose[-1], self.camera_pose_target)
 
     def _require_samples(self, what: str) -> None:
         if len(self) == 0:
             raise InvalidArrayError("SimulationResult", f"no samples (asked for {what})", ">= 1 sample")
 
     # ------------------------------------------------------------------ persistence
+    def _arrays(self) -> dict[str, np.ndarray]:
+        arrays = {
+            f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("metadata", "signals")
+        }
+        arrays.update({_SIGNAL_PREFIX + name: value for name, value in self.signals.items()})
+        return arrays
+
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write every array and the metadata (as a JSON string) to one ``.npz`` file.
 
@@ -177,15 +221,14 @@ class SimulationResult:
         path = Path(path)
         if path.suffix != ".npz":
             path = path.with_name(path.name + ".npz")
-        arrays = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "metadata"}
         header = {"format_version": FORMAT_VERSION, "metadata": self.metadata}
         meta = np.array(json.dumps(header, default=_json_default, allow_nan=True))
-        np.savez_compressed(path, __metadata__=meta, **arrays)
+        np.savez_compressed(path, __metadata__=meta, **self._arrays())
         return path
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> SimulationResult:
-        """Read a result written by :meth:`save` (``path`` with or without ``.npz``).
+        """Read a result written by :meth:`save` (``path`` with or without ``.npz``), any format version.
 
         Raises:
             InvalidParameterError: the file is missing or is not a saved result.
@@ -198,33 +241,63 @@ class SimulationResult:
                 "path", str(path), "an existing file written by SimulationResult.save"
             )
         with np.load(path, allow_pickle=False) as data:
-            names = [f.name for f in fields(cls) if f.name != "metadata"]
-            missing = [n for n in [*names, "__metadata__"] if n not in data.files]
-            if missing:
-                raise InvalidParameterError(
-                    "path", str(path), f"a saved SimulationResult (missing {missing})"
-                )
-            arrays = {n: data[n] for n in names}
-            header = json.loads(str(data["__metadata__"]))
-        if header.get("format_version") != FORMAT_VERSION:
+            arrays = {name: data[name] for name in data.files}
+        header = json.loads(str(arrays.pop("__metadata__", "{}")))
+        version = header.get("format_version")
+        if version == 1:
+            return cls._from_format_1(path, arrays, header["metadata"])
+        if version != FORMAT_VERSION:
             raise InvalidParameterError(
-                "format_version", header.get("format_version"), f"{FORMAT_VERSION} (this library's format)"
+                "format_version", version, f"1 or {FORMAT_VERSION} (the formats this library reads)"
             )
-        return cls(**arrays, metadata=header["metadata"])
+        names = [f.name for f in fields(cls) if f.name not in ("metadata", "signals")]
+        missing = [n for n in names if n not in arrays]
+        if missing:
+            raise InvalidParameterError("path", str(path), f"a saved SimulationResult (missing {missing})")
+        signals = {k[len(_SIGNAL_PREFIX) :]: v for k, v in arrays.items() if k.startswith(_SIGNAL_PREFIX)}
+        return cls(**{n: arrays[n] for n in names}, signals=signals, metadata=header["metadata"])
+
+    @classmethod
+    def _from_format_1(cls, path: Path, arrays: dict[str, np.ndarray], metadata: dict[str, Any]) -> SimulationResult:
+        """Format 1: fixed fields, no frame log (``feature_error`` was stored; it is derived now)."""
+        required = ["t", *_LEGACY_SIGNALS, "features", "feature_target", "camera_pose", "camera_pose_target",
+                    "visible", "update_time"]
+        missing = [n for n in required if n not in arrays]
+        if missing:
+            raise InvalidParameterError("path", str(path), f"a saved SimulationResult (missing {missing})")
+        return cls(
+            t=arrays["t"],
+            camera_pose=arrays["camera_pose"],
+            camera_pose_target=arrays["camera_pose_target"],
+            features=arrays["features"],
+            feature_target=arrays["feature_target"],
+            visible=arrays["visible"],
+            signals={name: arrays[name] for name in _LEGACY_SIGNALS},
+            update_time=arrays["update_time"],
+            metadata={"plant": "dynamic", **metadata},
+        )
+
+
+def _shaped(value: Any, name: str, shape: tuple[int, ...]) -> np.ndarray:
+    arr = as_array(value, name, finite=False)
+    if arr.shape != shape:
+        raise InvalidArrayError(name, f"an array of shape {arr.shape}", f"shape {shape}")
+    return arr
 
 
 class ResultRecorder:
-    """Preallocated sample buffers that a simulator fills one sample at a time.
+    """Preallocated buffers that a servo loop fills, one tick sample and one frame at a time.
 
-    Appending is amortised O(1): the buffers are allocated for ``capacity`` samples and
-    doubled if the run records more. :meth:`result` copies only the filled part, so it
-    can be called at any time, e.g. from an ``except`` block when a run diverges.
+    Appending is amortised O(1): buffers are allocated for ``capacity`` samples and doubled
+    when a run records more. The named signals are fixed by the first :meth:`record` call
+    (their names and shapes). :meth:`result` copies only the filled part, so it can be
+    called at any time, e.g. when a run diverges.
 
     Args:
-        feature_target: Target features (9,) [m on the sensor].
+        feature_target: Target features (m,).
         camera_pose_target: Target camera pose ``T_O_C`` (4, 4).
-        capacity: Expected number of samples (>= 1), e.g. ``round(duration / dt_record) + 1``.
-        n_joints: Length of the joint vectors (6 for the IRB 4600).
+        capacity: Expected number of tick samples (>= 1).
+        n_points: Number of markers n (visibility columns).
         metadata: JSON-serialisable dict copied into the result.
     """
 
@@ -234,100 +307,102 @@ class ResultRecorder:
         camera_pose_target: np.ndarray,
         capacity: int,
         *,
-        n_joints: int = 6,
+        n_points: int = 3,
         metadata: dict[str, Any] | None = None,
     ) -> None:
         if isinstance(capacity, bool) or not isinstance(capacity, (int, np.integer)) or capacity < 1:
             raise InvalidParameterError("capacity", capacity, "an integer >= 1")
-        if isinstance(n_joints, bool) or not isinstance(n_joints, (int, np.integer)) or n_joints < 1:
-            raise InvalidParameterError("n_joints", n_joints, "an integer >= 1")
-        self.feature_target = as_array(feature_target, "feature_target", (9,)).copy()
+        if isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer)) or n_points < 1:
+            raise InvalidParameterError("n_points", n_points, "an integer >= 1")
+        self.feature_target = as_array(feature_target, "feature_target", (None,)).copy()
         self.camera_pose_target = as_pose(camera_pose_target, "camera_pose_target").copy()
         self.metadata = _normalise_metadata(metadata)
-        self._n_joints = int(n_joints)
-        self._t = np.empty(int(capacity))
-        self._buf = {
-            name: np.empty(
-                (int(capacity), *(self._n_joints if s is None else s for s in tail)),
-                dtype=bool if name == "visible" else float,
-            )
-            for name, tail in _SAMPLE_SHAPES.items()
-            if name != "feature_error"  # derived from features in `result`
+        m, n = self.feature_target.shape[0], int(n_points)
+        self._tick = {
+            "t": np.empty(int(capacity)),
+            "camera_pose": np.empty((int(capacity), 4, 4)),
+            "features": np.empty((int(capacity), m)),
+            "visible": np.empty((int(capacity), n), dtype=bool),
         }
+        self._signals: dict[str, np.ndarray] | None = None
         self._n = 0
-        self._update_time = np.empty(max(16, int(capacity)))
+        frames = max(16, int(capacity))
+        self._frame = {
+            "frame_t": np.empty(frames),
+            "frame_features": np.empty((frames, m)),
+            "frame_visible": np.empty((frames, n), dtype=bool),
+            "update_time": np.empty(frames),
+        }
         self._m = 0
 
     def __len__(self) -> int:
         return self._n
 
-    def _grow(self) -> None:
-        self._t = np.concatenate([self._t, np.empty_like(self._t)])
-        for name, buf in self._buf.items():
-            self._buf[name] = np.concatenate([buf, np.empty_like(buf)])
+    @staticmethod
+    def _grown(buffers: dict[str, np.ndarray]) -> None:
+        for name, buf in buffers.items():
+            buffers[name] = np.concatenate([buf, np.empty_like(buf)])
 
     def record(
-        self,
-        t: float,
-        *,
-        q: np.ndarray,
-        q_true: np.ndarray,
-        dq: np.ndarray,
-        q_ref: np.ndarray,
-        q_ff: np.ndarray,
-        q_fb: np.ndarray,
-        tau: np.ndarray,
-        features: np.ndarray,
-        camera_pose: np.ndarray,
-        visible: np.ndarray,
+        self, t: float, camera_pose: np.ndarray, features: np.ndarray, visible: Any, signals: dict[str, Any]
     ) -> None:
-        """Append one sample (``feature_error = feature_target - features`` is derived in :meth:`result`).
+        """Append one tick sample; ``signals`` maps names to arrays of fixed shapes (copied).
 
-        Values are copied into the buffers (broadcasting rules of numpy assignment apply,
-        so a wrong length raises ``ValueError`` from numpy).
+        Raises:
+            InvalidParameterError: ``signals`` names differ from the first sample's.
         """
-        if self._n == self._t.shape[0]:
-            self._grow()
         i = self._n
-        b = self._buf
-        self._t[i] = t
-        b["q"][i] = q
-        b["q_true"][i] = q_true
-        b["dq"][i] = dq
-        b["q_ref"][i] = q_ref
-        b["q_ff"][i] = q_ff
-        b["q_fb"][i] = q_fb
-        b["tau"][i] = tau
-        b["features"][i] = features
-        b["camera_pose"][i] = camera_pose
-        b["visible"][i] = visible
+        if i == self._tick["t"].shape[0]:
+            self._grown(self._tick)
+            if self._signals is not None:
+                self._grown(self._signals)
+        if self._signals is None:
+            capacity = self._tick["t"].shape[0]
+            self._signals = {
+                name: np.empty((capacity, *np.shape(value)), dtype=float) for name, value in signals.items()
+            }
+        elif signals.keys() != self._signals.keys():
+            raise InvalidParameterError("signals", sorted(signals), f"the names of the first sample {sorted(self._signals)}")
+        tick = self._tick
+        tick["t"][i] = t
+        tick["camera_pose"][i] = camera_pose
+        tick["features"][i] = features
+        tick["visible"][i] = visible
+        bufs = self._signals
+        for name, value in signals.items():
+            bufs[name][i] = value
         self._n = i + 1
 
-    def record_update_time(self, seconds: float) -> None:
-        """Append the wall-clock compute time of one control update [s]."""
-        if self._m == self._update_time.shape[0]:
-            self._update_time = np.concatenate([self._update_time, np.empty_like(self._update_time)])
-        self._update_time[self._m] = seconds
-        self._m += 1
+    def record_frame(self, t: float, features: np.ndarray, visible: Any, update_time: float) -> None:
+        """Append one camera frame: capture time [s], features, visibility, control-update time [s]."""
+        j = self._m
+        if j == self._frame["frame_t"].shape[0]:
+            self._grown(self._frame)
+        frame = self._frame
+        frame["frame_t"][j] = t
+        frame["frame_features"][j] = features
+        frame["frame_visible"][j] = visible
+        frame["update_time"][j] = update_time
+        self._m = j + 1
 
     def result(
         self, *, status: str = "complete", extra_metadata: dict[str, Any] | None = None
     ) -> SimulationResult:
-        """Return the samples recorded so far as a :class:`SimulationResult` (copies).
+        """The samples recorded so far as a :class:`SimulationResult` (copies).
 
         Args:
-            status: Stored as ``metadata["status"]``, e.g. ``"complete"``, ``"diverged"``,
-                ``"interrupted"``; anything but ``"complete"`` marks a partial result.
+            status: One of :data:`STATUSES`, stored as ``metadata["status"]``.
             extra_metadata: Merged over the recorder's metadata (e.g. the error message).
         """
-        n = self._n
+        if status not in STATUSES:
+            raise InvalidParameterError("status", status, " or ".join(repr(s) for s in STATUSES))
+        n, m = self._n, self._m
         metadata = {**self.metadata, **_normalise_metadata(extra_metadata), "status": status}
         return SimulationResult(
-            t=self._t[:n].copy(),
-            **{name: buf[:n].copy() for name, buf in self._buf.items()},
-            feature_error=self.feature_target - self._buf["features"][:n],
+            **{name: buf[:n].copy() for name, buf in self._tick.items()},
             feature_target=self.feature_target.copy(),
             camera_pose_target=self.camera_pose_target.copy(),
-            update_time=self._update_time[: self._m].copy(),
+            signals={name: buf[:n].copy() for name, buf in (self._signals or {}).items()},
+            **{name: buf[:m].copy() for name, buf in self._frame.items()},
             metadata=metadata,
         )

@@ -15,15 +15,12 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import one_of, positive
-from ..control.outer import SingularValuePolicy
+from .._validation import positive
+from ..control.singular_values import SingularValuePolicy
+from ..controllers.youla import BRANCH_PRIORS, FEEDFORWARD_KINDS, LINEARIZE_AT, YoulaSettings
 from ..exceptions import InvalidParameterError
 
-__all__ = ["SimulationSettings"]
-
-FEEDFORWARD_KINDS = ("paper", "smooth")
-LINEARIZE_AT = ("start", "target")
-BRANCH_PRIORS = ("encoders", "previous")
+__all__ = ["BRANCH_PRIORS", "FEEDFORWARD_KINDS", "LINEARIZE_AT", "SimulationSettings"]
 
 
 @dataclass(frozen=True)
@@ -84,9 +81,10 @@ class SimulationSettings:
         return cls(**{"camera_rate_hz": None, **overrides})
 
     def __post_init__(self) -> None:
-        positive(self.joint_rate_hz, "joint_rate_hz", unit="Hz")
+        set_ = object.__setattr__
+        set_(self, "joint_rate_hz", positive(self.joint_rate_hz, "joint_rate_hz", unit="Hz"))
         if self.camera_rate_hz is not None:
-            positive(self.camera_rate_hz, "camera_rate_hz", unit="Hz")
+            set_(self, "camera_rate_hz", positive(self.camera_rate_hz, "camera_rate_hz", unit="Hz"))
             ratio = self.joint_rate_hz / self.camera_rate_hz
             if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9:
                 raise InvalidParameterError(
@@ -95,27 +93,14 @@ class SimulationSettings:
                     f"a rate that divides joint_rate_hz = {self.joint_rate_hz} Hz (e.g. "
                     f"{self.joint_rate_hz / 10:g} Hz)",
                 )
-        positive(self.tau_in, "tau_in", unit="s")
-        positive(self.omega_n, "omega_n", unit="rad/s")
-        positive(self.zeta, "zeta")
-        if self.omega_n * self.tau_in >= 1.0:
-            raise InvalidParameterError(
-                "omega_n", self.omega_n, f"(0, 1/tau_in) = (0, {1.0 / self.tau_in:g}) rad/s (Section 6.3)"
-            )
-        if self.tau_forward is not None:
-            positive(self.tau_forward, "tau_forward", unit="s")
-        one_of(self.feedforward, "feedforward", FEEDFORWARD_KINDS)
-        frac = positive(self.smooth_speed_fraction, "smooth_speed_fraction")
-        if frac > 1.0:
-            raise InvalidParameterError("smooth_speed_fraction", frac, "a number in (0, 1]")
-        if not isinstance(self.sv_policy, SingularValuePolicy):
-            raise InvalidParameterError("sv_policy", self.sv_policy, "a SingularValuePolicy")
-        one_of(self.linearize_at, "linearize_at", LINEARIZE_AT)
-        one_of(self.branch_prior, "branch_prior", BRANCH_PRIORS)
-        positive(self.model_inertia_scale, "model_inertia_scale")
-        for flag in ("saturate", "estimate_from_image"):
-            if not isinstance(getattr(self, flag), (bool, np.bool_)):
-                raise InvalidParameterError(flag, getattr(self, flag), "True or False")
+        # The controller's gains are validated (and normalised) once, by YoulaSettings.
+        gains = YoulaSettings(**{name: getattr(self, name) for name in YoulaSettings.field_names()})
+        for name in YoulaSettings.field_names():
+            set_(self, name, getattr(gains, name))
+        set_(self, "model_inertia_scale", positive(self.model_inertia_scale, "model_inertia_scale"))
+        if not isinstance(self.saturate, (bool, np.bool_)):
+            raise InvalidParameterError("saturate", self.saturate, "True or False")
+        set_(self, "saturate", bool(self.saturate))
         record_every = self.record_every
         if (
             isinstance(record_every, bool)
@@ -123,6 +108,10 @@ class SimulationSettings:
             or record_every < 1
         ):
             raise InvalidParameterError("record_every", record_every, "an integer >= 1")
+
+    def controller_settings(self) -> YoulaSettings:
+        """The paper controller's gains and options held here, as :class:`YoulaSettings`."""
+        return YoulaSettings(**{name: getattr(self, name) for name in YoulaSettings.field_names()})
 
     @property
     def dt(self) -> float:

@@ -1,312 +1,298 @@
-"""Closed-loop simulation of the paper's control architecture (Figures 7-12).
+"""``simulate()``: one servo loop for every controller, plant and camera.
 
-One joint-loop sample k (period dt, default 1 ms) does, in this order:
+It assembles the four roles of :mod:`.loop` from a scenario and runs them:
 
-1. camera frame (every ``camera_every`` samples): the stereo camera sees the markers
-   from the *true* arm configuration ``q_true = q + d`` (ERRATA 14); the image error
-   ``e = p_target - p`` drives the outer loop ``q_fb = K(z)[J^+ e]`` (Eq. (53)-(61),
-   ERRATA 9), with J re-linearized at the configuration estimated from the image by
-   stereo P3P + IK (Eq. (62), adaptive) or evaluated once (fixed);
-2. feedforward ``q_ff = T_forward(z)[q_des]`` (Eq. (47)-(49)), started at rest at q_start;
-3. inner loop ``v = G_C(z)[q_ref - q]`` with ``q_ref = q_ff + q_fb`` (Eq. (41)-(46),
-   ERRATA 8) and feedback linearization ``tau = M(q) v + h(q, dq)`` (Eq. (33)) computed
-   from the encoders with the controller's arm model;
-4. the plant integrates ``M ddq + h = tau`` with RK4 over dt, tau held (Eq. (29)-(30)).
+* **sensor** (:class:`~.sensor.MarkerSensor`): the *true* camera and markers;
+* **plant**: ``"dynamic"`` (the arm's rigid-body dynamics, Pinocchio ABA + RK4 with the
+  torque held, :class:`~.plant.ArmPlant`), ``"kinematic"`` (an ideal inner loop,
+  :class:`~.kinematic_arm.KinematicArmPlant`) or ``"free-camera"`` (no arm,
+  :class:`~.free_camera.FreeCameraPlant`);
+* **controller**: a registered name (:mod:`ibvs_youla.controllers`) or any
+  :class:`~ibvs_youla.controllers.Controller` object, reset with a
+  :class:`~ibvs_youla.controllers.ServoTask` that carries its *own* models — equal to the
+  truth unless ``beliefs`` says otherwise;
+* **actuation** (:mod:`.actuation`): from the controller's command to what the plant
+  accepts, e.g. the paper's inner loop (Eq. (33)-(46)) from a joint position reference to
+  torque on the dynamic arm.
 
-Feedback only (``controller="fb"``) has no feedforward: ``q_ff = 0`` and the outer
-loop's integrator starts at ``q_fb = q_start`` (bumpless start). Feedforward plus
-feedback starts with ``q_ff = q_start`` and ``q_fb = 0``.
+The scenario-2 disturbance is the plant's unseen encoder offset (ERRATA 14): the camera
+moves with ``q_true = q + d`` while the controller reads ``q``.
 """
 
 from __future__ import annotations
 
-import time
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from .._validation import one_of, positive
-from ..control.feedforward import FeedforwardDesign
-from ..control.inner import InnerLoopDesign
-from ..control.outer import OuterLoopDesign
-from ..estimation.eye_in_hand import EyeInHand
-from ..exceptions import (
-    InvalidDisparityError,
-    InvalidParameterError,
-    PointBehindCameraError,
-    SimulationDivergedError,
-    UnreachablePoseError,
-)
+from .._validation import as_array, one_of, positive
+from ..controllers import Controller, ServoTask, make, uses_youla_settings
+from ..controllers.base import CommandType
+from ..exceptions import InvalidParameterError
 from ..model.arm import Arm
-from ..model.camera import StereoCamera
+from ..model.camera import PinholeCamera, StereoCamera, default_camera
 from ..scenarios import Scenario
+from .actuation import actuation_chain
+from .free_camera import FreeCameraPlant
+from .kinematic_arm import KinematicArmPlant
+from .loop import ServoLoop
 from .plant import ArmPlant
 from .results import ResultRecorder, SimulationResult, software_versions
+from .sensor import MarkerSensor
 from .settings import SimulationSettings
 
-__all__ = ["CONTROLLERS", "default_camera", "simulate"]
+__all__ = ["PLANTS", "Beliefs", "default_camera", "simulate"]
 
-CONTROLLERS = ("fb", "ff+fb")
+PLANTS = ("dynamic", "kinematic", "free-camera")
 
 
-def default_camera(**overrides: object) -> StereoCamera:
-    """The camera ``simulate`` uses unless told otherwise.
+@dataclass(frozen=True, eq=False)
+class Beliefs:
+    """What the controller believes where it differs from the truth (``None``: the truth).
 
-    The paper's ZED 2 optics (Table A3) in the VGA mode, whose 100 fps matches the default
-    100 Hz camera rate (ERRATA 15); ``overrides`` go to :meth:`StereoCamera.zed2`.
+    Attributes:
+        arm: The controller's arm model: kinematics (hence the hand-eye transform T_E_C),
+            dynamics for the feedback linearization. ``SimulationSettings.model_inertia_scale``
+            scales it further.
+        camera: The controller's camera model (focal length, baseline, principal point).
+        markers_O: The controller's marker coordinates (n, 3) [m].
     """
-    return StereoCamera.zed2(**{"mode": "VGA", **overrides})
+
+    arm: Arm | None = None
+    camera: StereoCamera | PinholeCamera | None = None
+    markers_O: Any = None
+
+    def __post_init__(self) -> None:
+        if self.arm is not None and not isinstance(self.arm, Arm):
+            raise InvalidParameterError("beliefs.arm", type(self.arm).__name__, "an Arm or None")
+        if self.camera is not None and not isinstance(self.camera, (StereoCamera, PinholeCamera)):
+            raise InvalidParameterError("beliefs.camera", type(self.camera).__name__,
+                                        "a StereoCamera, a PinholeCamera or None")
+        if self.markers_O is not None:
+            markers = as_array(self.markers_O, "beliefs.markers_O", (None, 3)).copy()
+            markers.setflags(write=False)
+            object.__setattr__(self, "markers_O", markers)
 
 
 def simulate(
     scenario: Scenario,
-    controller: str = "ff+fb",
+    controller: str | Controller = "ff+fb",
     adaptive: bool = True,
     duration: float = 10.0,
     *,
+    plant: str = "dynamic",
+    camera: StereoCamera | PinholeCamera | None = None,
     settings: SimulationSettings | None = None,
     arm: Arm | None = None,
-    camera: StereoCamera | None = None,
+    beliefs: Beliefs | None = None,
     progress: bool = False,
 ) -> SimulationResult:
     """Simulate one scenario in closed loop and return every signal as data.
 
     Args:
-        scenario: Start, target, markers and disturbance (e.g. ``scenarios.paper(1)``).
-        controller: ``"ff+fb"`` (feedforward + feedback, the paper's proposal) or
-            ``"fb"`` (feedback only).
-        adaptive: Re-linearize the outer loop at every camera frame at the configuration
-            estimated from the image (Eq. (62)); False evaluates J once
-            (``settings.linearize_at``).
+        scenario: Start, target, markers and disturbance (e.g. ``scenarios.paper(1)``), or
+            a free-camera scenario (``Scenario.free_camera(...)``).
+        controller: A registered name (``iy.controllers.names()``: ``"ff+fb"`` the paper's
+            feedforward + feedback, ``"fb"`` feedback only, ...) or a controller object.
+        adaptive: For the paper's controllers: re-linearize the outer loop at every camera
+            frame at the configuration estimated from the image (Eq. (62)); False evaluates
+            J once (``settings.linearize_at``). Other controllers take their options from
+            ``iy.controllers.make(name, **params)``.
         duration: Simulated time [s].
-        settings: Rates, gains and options; default ``SimulationSettings()``: the paper's
-            gains, joint loop at 1 kHz, camera at 100 Hz. ``SimulationSettings.paper()``
-            runs the camera at the joint rate, as the reproduction does.
-        arm: The plant's arm; default ``Arm.irb4600()``.
-        camera: The stereo camera; default ``StereoCamera.zed2(mode="VGA")``: the paper's
-            optics (Table A3) in the ZED 2 mode whose frame rate reaches 100 Hz.
+        plant: ``"dynamic"`` (default), ``"kinematic"`` or ``"free-camera"`` (module docstring).
+        camera: The true camera; default ``default_camera()``: the paper's ZED 2 optics in the
+            VGA mode whose frame rate reaches 100 Hz. A ``PinholeCamera`` is monocular.
+        settings: Rates, the paper controller's gains, options; default
+            ``SimulationSettings()`` (joint loop 1 kHz, camera 100 Hz).
+            ``SimulationSettings.paper()`` runs the camera at the joint rate. On the
+            free-flying camera the tick is the camera period.
+        arm: The true arm; default ``Arm.irb4600()`` (not built for a free-camera scenario).
+        beliefs: Where the controller's models differ from the truth (:class:`Beliefs`).
         progress: Show a progress bar (tqdm) on stderr.
 
     Returns:
-        The result. ``metadata["status"]`` is ``"complete"``; ``"markers_lost"`` when a
-        physical (non-virtual) marker went behind the camera; or ``"estimate_failed"`` when
-        no IK branch within the joint limits reaches the camera pose seen in the image
-        (Eq. (62); e.g. the paper's feedforward swung a joint past its limit, which the
-        plant, having no hard stops, allows). The run stops there and
-        ``metadata["error"]`` says when and why.
+        The result. ``result.status`` is ``"complete"``; ``"markers_lost"`` when a marker
+        went behind the camera (or its disparity vanished); ``"estimate_failed"`` when the
+        controller's estimate failed (e.g. no IK branch within the joint limits reaches the
+        camera pose seen in the image, Eq. (62)). ``metadata["error"]`` says when and why;
+        ``metadata["spec"]`` holds the full run specification.
 
     Raises:
-        InvalidParameterError: unknown controller, non-positive duration, or a scenario,
-            settings, arm or camera of the wrong type.
+        InvalidParameterError: unknown controller or plant, non-positive duration, a
+            scenario, settings, arm, camera or beliefs of the wrong type, a free-camera
+            scenario on an arm plant, or a controller that cannot use the task (e.g. the
+            paper's controller with a monocular camera).
+        IncompatibleCommandError: the controller's command cannot drive the plant.
         JointLimitError: the scenario's configurations are outside the arm's limits.
         SimulationDivergedError: a state left its bounds; ``error.partial`` holds the
             samples recorded until then.
     """
-    one_of(controller, "controller", CONTROLLERS)
     duration = positive(duration, "duration", unit="s")
+    one_of(plant, "plant", PLANTS)
     for name, value, kind in (
         ("scenario", scenario, Scenario),
         ("settings", settings, SimulationSettings),
         ("arm", arm, Arm),
-        ("camera", camera, StereoCamera),
+        ("camera", camera, (StereoCamera, PinholeCamera)),
+        ("beliefs", beliefs, Beliefs),
     ):
         if not (isinstance(value, kind) or (value is None and name != "scenario")):
-            raise InvalidParameterError(name, type(value).__name__, f"a {kind.__name__}")
+            valid = " or ".join(k.__name__ for k in (kind if isinstance(kind, tuple) else (kind,)))
+            raise InvalidParameterError(name, type(value).__name__, f"a {valid}")
+    if not isinstance(adaptive, (bool, np.bool_)):
+        raise InvalidParameterError("adaptive", adaptive, "True or False")
     settings = SimulationSettings() if settings is None else settings
-    arm = Arm.irb4600() if arm is None else arm
+    beliefs = Beliefs() if beliefs is None else beliefs
+    ctrl = _controller(controller, bool(adaptive), settings)
     camera = default_camera() if camera is None else camera
+    if plant == "free-camera":
+        world = _free_camera_world(scenario, arm, settings)
+    else:
+        arm = Arm.irb4600() if arm is None else arm
+        world = _arm_world(scenario, plant, arm, settings)
+    sensor = MarkerSensor(camera, scenario.markers_O, virtual_points=scenario.virtual_points)
+    model_arm = None
+    if world.arm is not None:
+        model_arm = world.arm if beliefs.arm is None else beliefs.arm
+        if settings.model_inertia_scale != 1.0:
+            model_arm = model_arm.with_inertia_scale(settings.model_inertia_scale)
+    chain = actuation_chain(
+        ctrl.command_type, world.plant, arm=model_arm, q_start=scenario.q_start, tau_in=settings.tau_in, dt=world.dt
+    )
+    task = ServoTask(
+        camera=camera if beliefs.camera is None else beliefs.camera,
+        markers_O=scenario.markers_O if beliefs.markers_O is None else beliefs.markers_O,
+        feature_target=sensor.features_at(world.T_O_C_target),
+        T_O_C_target=world.T_O_C_target,
+        tick_period=world.dt,
+        frame_period=world.dt * world.ticks_per_frame,
+        virtual_points=scenario.virtual_points,
+        arm=model_arm,
+        q_start=scenario.q_start,
+        q_target=scenario.q_target,
+        T_O_C_start=world.T_O_C_start,
+    )
+    ctrl.reset(task)
+    n_ticks = round(duration / world.dt)
+    record_every = settings.record_every
+    command_signals = (ctrl.command_type.signal, *(a.output_type.signal for a in chain))
+    metadata = _metadata(scenario, ctrl, plant, world, camera, settings, beliefs, n_ticks)
+    recorder = ResultRecorder(
+        task.feature_target, world.T_O_C_target, n_ticks // record_every + 2, n_points=sensor.n_points,
+        metadata=metadata,
+    )
+    loop = ServoLoop(ctrl, sensor, world.plant, chain, world.dt, n_ticks, world.ticks_per_frame, record_every,
+                     recorder, command_signals)
+    return loop.run(progress, scenario.name or "simulate")
+
+
+def _controller(controller: Any, adaptive: bool, settings: SimulationSettings) -> Controller:
+    if isinstance(controller, str):
+        if uses_youla_settings(controller):
+            return make(controller, adaptive=adaptive, settings=settings.controller_settings())
+        if not adaptive:
+            raise InvalidParameterError(
+                "adaptive", adaptive, f"True for {controller!r} (only the paper's controllers have a fixed-J "
+                "variant; pass options with iy.controllers.make)"
+            )
+        return make(controller)
+    missing = [a for a in ("reset", "update", "command", "command_type") if not hasattr(controller, a)]
+    if missing:
+        raise InvalidParameterError(
+            "controller", type(controller).__name__,
+            f"a registered name or a controller object (an iy.controllers.Controller; missing {missing})",
+        )
+    CommandType.parse(controller.command_type)
+    return controller
+
+
+@dataclass(frozen=True)
+class _World:
+    plant: Any
+    arm: Arm | None
+    dt: float
+    ticks_per_frame: int
+    T_O_C_start: np.ndarray
+    T_O_C_target: np.ndarray
+
+
+def _arm_world(scenario: Scenario, plant: str, arm: Arm, settings: SimulationSettings) -> _World:
+    if not scenario.has_joints:
+        raise InvalidParameterError(
+            "plant", plant, f"'free-camera' for the free-camera scenario {scenario.name!r} (it has no joints)"
+        )
     scenario.validate_for(arm)
-    return _Run(scenario, controller, bool(adaptive), duration, settings, arm, camera).run(progress)
-
-
-class _Run:
-    """State of one simulation; built and consumed by :func:`simulate`."""
-
-    def __init__(
-        self,
-        scenario: Scenario,
-        controller: str,
-        adaptive: bool,
-        duration: float,
-        settings: SimulationSettings,
-        arm: Arm,
-        camera: StereoCamera,
-    ) -> None:
-        s = settings
-        self.scenario, self.controller, self.adaptive, self.settings = scenario, controller, adaptive, s
-        self.dt = s.dt
-        self.n_steps = round(duration / self.dt)
-        self.model = arm if s.model_inertia_scale == 1.0 else arm.with_inertia_scale(s.model_inertia_scale)
-        self.eye = EyeInHand(arm, camera, scenario.markers_O, virtual_points=scenario.virtual_points)
-        self.plant = ArmPlant(
-            arm,
-            scenario.joint_offset,
-            q_encoder=scenario.q_start,
-            saturate_torque=s.saturate,
-            saturate_speed=s.saturate,
+    dt = settings.dt
+    if plant == "dynamic":
+        world_plant: Any = ArmPlant(
+            arm, scenario.joint_offset, q_encoder=scenario.q_start,
+            saturate_torque=settings.saturate, saturate_speed=settings.saturate,
         )
-        self.T_O_C_target = arm.camera_pose(scenario.q_target)
-        self.p_target = self.eye.features_at_pose(self.T_O_C_target)
+    else:
+        world_plant = KinematicArmPlant(arm, scenario.joint_offset, q_encoder=scenario.q_start,
+                                        tau_in=settings.tau_in, dt=dt)
+    return _World(world_plant, arm, dt, settings.camera_every, arm.camera_pose(scenario.q_true_start),
+                  arm.camera_pose(scenario.q_target))
 
-        self.inner = InnerLoopDesign(s.tau_in).discrete_controller(self.dt, arm.nq)
-        outer_design = OuterLoopDesign(s.omega_n, s.zeta, s.tau_in, s.sv_policy)
-        self.outer = outer_design.runtime(self.dt * s.camera_every, arm.nq)
-        if controller == "ff+fb":
-            ff = FeedforwardDesign(s.tau_in, s.tau_ff)
-            if s.feedforward == "paper":
-                self.ff = ff.step_runtime(scenario.q_start, scenario.q_target, self.dt)
-            else:
-                self.ff = ff.smooth_runtime(
-                    scenario.q_start,
-                    scenario.q_target,
-                    arm.dq_max,
-                    self.dt,
-                    speed_fraction=s.smooth_speed_fraction,
-                )
-            self.outer.reset(np.zeros(arm.nq))
-        else:
-            self.ff = None
-            self.outer.reset(scenario.q_start)
 
-        n_records = self.n_steps // s.record_every + 2
-        self.recorder = ResultRecorder(
-            self.p_target, self.T_O_C_target, n_records, n_joints=arm.nq, metadata=self._metadata(arm, camera)
-        )
+def _free_camera_world(scenario: Scenario, arm: Arm | None, settings: SimulationSettings) -> _World:
+    if scenario.has_joints:  # an arm scenario: its camera poses, without the arm
+        arm = Arm.irb4600() if arm is None else arm
+        scenario.validate_for(arm)
+        T_start, T_target = arm.camera_pose(scenario.q_true_start), arm.camera_pose(scenario.q_target)
+    else:
+        T_start, T_target = scenario.T_O_C_start, scenario.T_O_C_target
+    rate = settings.joint_rate_hz if settings.camera_rate_hz is None else settings.camera_rate_hz
+    return _World(FreeCameraPlant(T_start), None, 1.0 / rate, 1, np.array(T_start), np.array(T_target))
 
-    def _metadata(self, arm: Arm, camera: StereoCamera) -> dict[str, Any]:
-        sc = self.scenario
-        return {
-            "scenario": sc.name,
-            "scenario_description": sc.description,
-            "controller": self.controller,
-            "adaptive": self.adaptive,
-            "duration": self.n_steps * self.dt,
-            "joint_rate_hz": self.settings.joint_rate_hz,
-            "camera_rate_hz": self.settings.joint_rate_hz / self.settings.camera_every,
-            "settings": self.settings.to_dict(),
-            "q_start": sc.q_start.tolist(),
-            "q_target": sc.q_target.tolist(),
-            "joint_offset": sc.joint_offset.tolist(),
-            "q_encoder_goal": sc.q_encoder_goal.tolist(),
-            "virtual_points": sc.virtual_points,
-            "markers_O": sc.markers_O.tolist(),
-            "arm": arm.name,
+
+def _metadata(
+    scenario: Scenario,
+    ctrl: Controller,
+    plant: str,
+    world: _World,
+    camera: Any,
+    settings: SimulationSettings,
+    beliefs: Beliefs,
+    n_ticks: int,
+) -> dict[str, Any]:
+    spec = ctrl.spec()
+    joints = scenario.has_joints
+    metadata: dict[str, Any] = {
+        "scenario": scenario.name,
+        "scenario_description": scenario.description,
+        "controller": ctrl.name,
+        "adaptive": bool(spec.get("adaptive", True)),
+        "plant": plant,
+        "duration": n_ticks * world.dt,
+        "joint_rate_hz": 1.0 / world.dt if plant != "free-camera" else None,
+        "camera_rate_hz": 1.0 / (world.dt * world.ticks_per_frame),
+        "settings": settings.to_dict(),
+        "virtual_points": scenario.virtual_points,
+        "markers_O": scenario.markers_O.tolist(),
+        "arm": world.arm.name if world.arm is not None else None,
+        "camera": repr(camera),
+        "versions": software_versions(),
+        "spec": {
+            "scenario": scenario.to_dict(),
+            "controller": spec,
+            "plant": plant,
             "camera": repr(camera),
-            "versions": software_versions(),
-        }
-
-    # ------------------------------------------------------------------ loop
-    def run(self, progress: bool) -> SimulationResult:
-        bar = None
-        if progress:
-            from tqdm import tqdm
-
-            bar = tqdm(total=self.n_steps, unit="step", desc=self.scenario.name or "simulate", leave=False)
-        try:
-            status = self._loop(bar)
-        except SimulationDivergedError as err:
-            err.partial = self.recorder.result(status="diverged", extra_metadata={"error": str(err)})
-            raise
-        finally:
-            if bar is not None:
-                bar.close()
-        extra = {} if status == "complete" else {"error": self._stop_reason}
-        return self.recorder.result(status=status, extra_metadata=extra)
-
-    def _camera_frame(self, q_enc: np.ndarray) -> np.ndarray:
-        """Measure, estimate, linearize and update the outer loop; return q_fb.
-
-        One forward-kinematics pass of the true arm gives the camera pose, reused for the
-        features, the visibility flag and the recorded pose of this sample. The library's
-        unchecked twins are called (``_project_flat``, ``_estimate_q``, ``_jacobian``, ``_update``):
-        every array here is built by the loop itself; ``tests/test_fast_paths.py`` pins them
-        to the checked methods.
-        """
-        eye = self.eye
-        camera = eye.camera
-        self.T_O_C = T_O_C = self.plant._camera_pose()
-        P_C = eye._points_in_camera_at_pose(T_O_C)
-        p = camera._project_flat(P_C, eye.virtual_points)
-        self.p_measured = p
-        self.visible = camera._visible_each(P_C)
-        tic = time.perf_counter()
-        e = self.p_target - p
-        if self.adaptive:
-            q_fb = self.outer._update(e, eye._jacobian(self._configuration_estimate(p, q_enc)))
-        else:
-            if self.k == 0:
-                q_lin = (
-                    self._configuration_estimate(p, q_enc)
-                    if self.settings.linearize_at == "start"
-                    else self.scenario.q_target
-                )
-                self.outer.set_jacobian(eye.jacobian(q_lin))
-            q_fb = self.outer.update(e)
-        self.recorder.record_update_time(time.perf_counter() - tic)
-        return q_fb
-
-    def _configuration_estimate(self, p: np.ndarray, q_enc: np.ndarray) -> np.ndarray:
-        """Eq. (62): q~ from the image, or the encoders.
-
-        The image fixes the camera pose, which up to eight IK branches reach; the branch
-        is the one nearest ``settings.branch_prior``: the encoders (default) or the
-        previous estimate.
-        """
-        if not self.settings.estimate_from_image:
-            return q_enc
-        use_previous = self.settings.branch_prior == "previous" and self.q_estimate is not None
-        q_near = self.q_estimate if use_previous else q_enc
-        self.q_estimate = self.eye._estimate_q(p, q_near)
-        return self.q_estimate
-
-    def _loop(self, bar: Any) -> str:
-        # A diverging state raises SimulationDivergedError from the plant; numpy's overflow and
-        # invalid-value warnings on the way there are noise (one errstate for the whole run).
-        with np.errstate(all="ignore"):
-            return self._steps(bar)
-
-    def _steps(self, bar: Any) -> str:
-        plant, model, inner, ff, dt = self.plant, self.model, self.inner, self.ff, self.dt
-        camera_every, record_every = self.settings.camera_every, self.settings.record_every
-        n_steps = self.n_steps
-        record, camera_frame = self.recorder.record, self._camera_frame
-        q_ff = np.zeros(model.nq)
-        q_fb = self.outer.q_fb
-        self.q_estimate: np.ndarray | None = None
-        for k in range(n_steps + 1):
-            self.k = k
-            q_enc, dq = plant.q_encoder, plant._dq  # arrays the plant replaces, never modifies
-            frame = k % camera_every == 0
-            if frame:
-                try:
-                    q_fb = camera_frame(q_enc)
-                except (PointBehindCameraError, InvalidDisparityError) as err:
-                    self._stop_reason = f"t = {k * dt:.6g} s: {err}"
-                    return "markers_lost"
-                except UnreachablePoseError as err:
-                    self._stop_reason = f"t = {k * dt:.6g} s: Eq. (62) failed: {err}"
-                    return "estimate_failed"
-            if ff is not None:
-                q_ff = ff.step()
-            q_ref = q_ff + q_fb
-            v = inner._step(q_ref - q_enc)
-            tau = model._inverse_dynamics(q_enc, dq, v)  # M(q) v + h(q, dq) of Eq. (33), one RNEA pass
-            if k % record_every == 0 or k == n_steps:
-                record(
-                    k * dt,
-                    q=q_enc,
-                    q_true=plant._q,
-                    dq=dq,
-                    q_ref=q_ref,
-                    q_ff=q_ff,
-                    q_fb=q_fb,
-                    tau=tau,
-                    features=self.p_measured,
-                    camera_pose=self.T_O_C if frame else plant._camera_pose(),
-                    visible=self.visible,
-                )
-            if k < n_steps:
-                plant._step(tau, dt)
-            if bar is not None and k % 1000 == 0 and k:
-                bar.update(1000)
-        return "complete"
+            "settings": settings.to_dict(),
+            "duration": n_ticks * world.dt,
+            "beliefs": {
+                "arm": None if beliefs.arm is None else beliefs.arm.name,
+                "camera": None if beliefs.camera is None else repr(beliefs.camera),
+                "markers_O": None if beliefs.markers_O is None else beliefs.markers_O.tolist(),
+            },
+        },
+    }
+    if joints:
+        metadata.update(
+            q_start=scenario.q_start.tolist(),  # type: ignore[union-attr]
+            q_target=scenario.q_target.tolist(),  # type: ignore[union-attr]
+            joint_offset=scenario.joint_offset.tolist(),
+            q_encoder_goal=scenario.q_encoder_goal.tolist(),
+        )
+    return metadata

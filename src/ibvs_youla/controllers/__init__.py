@@ -1,0 +1,116 @@
+"""Servo controllers by name: the one place a controller is registered.
+
+``simulate()``, the command line, TOML configs and ``reproduce`` all resolve controller
+names here, so adding a controller means one :func:`register` call next to its class.
+
+>>> from ibvs_youla import controllers
+>>> controllers.names()
+('fb', 'ff+fb')
+>>> controllers.make("ff+fb", adaptive=False).command_type.value
+'joint_position'
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from ..exceptions import InvalidParameterError
+from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
+from .youla import YoulaController, YoulaSettings
+
+__all__ = [
+    "CameraFrame",
+    "CommandType",
+    "Controller",
+    "JointReading",
+    "ServoTask",
+    "YoulaController",
+    "YoulaSettings",
+    "describe",
+    "make",
+    "names",
+    "register",
+    "uses_youla_settings",
+]
+
+
+@dataclass(frozen=True)
+class _Entry:
+    factory: Callable[..., Controller]
+    summary: str
+    youla_settings: bool  # takes ``adaptive`` and the YoulaSettings gains of SimulationSettings
+
+
+_REGISTRY: dict[str, _Entry] = {}
+
+
+def register(name: str, factory: Callable[..., Controller], summary: str, *, youla_settings: bool = False) -> None:
+    """Make ``factory(**params)`` available as ``make(name, **params)`` and ``simulate(controller=name)``.
+
+    Args:
+        name: Registry name, e.g. ``"ibvs-current"``; must be new.
+        factory: Returns a fresh :class:`Controller` for keyword parameters.
+        summary: One line for ``describe()`` and ``--help``.
+        youla_settings: The factory accepts ``adaptive`` and the :class:`YoulaSettings`
+            gains, which ``simulate`` then takes from its ``settings``.
+    """
+    if not isinstance(name, str) or not name or name in _REGISTRY:
+        raise InvalidParameterError("name", name, f"a new non-empty name (taken: {', '.join(_REGISTRY)})")
+    _REGISTRY[name] = _Entry(factory, summary, youla_settings)
+
+
+def names() -> tuple[str, ...]:
+    """Registered controller names, in registration order."""
+    return tuple(_REGISTRY)
+
+
+def describe() -> dict[str, str]:
+    """Name -> one-line summary."""
+    return {name: entry.summary for name, entry in _REGISTRY.items()}
+
+
+def _entry(name: Any) -> _Entry:
+    if not isinstance(name, str) or name not in _REGISTRY:
+        raise InvalidParameterError("controller", name, "a controller object or one of " + ", ".join(
+            repr(n) for n in _REGISTRY))
+    return _REGISTRY[name]
+
+
+def uses_youla_settings(name: str) -> bool:
+    """True when the named controller takes ``adaptive`` and the paper's gains."""
+    return _entry(name).youla_settings
+
+
+def make(name: str, **params: Any) -> Controller:
+    """A new controller by name, with its parameters.
+
+    Raises:
+        InvalidParameterError: unknown name, or a parameter the controller does not take
+            (the message lists those it does).
+    """
+    entry = _entry(name)
+    try:
+        inspect.signature(entry.factory).bind(**params)
+    except TypeError as exc:
+        accepted = ", ".join(inspect.signature(entry.factory).parameters)
+        raise InvalidParameterError("params", sorted(params), f"parameters of {name!r}: {accepted} ({exc})") from None
+    return entry.factory(**params)
+
+
+def _youla(feedforward: bool) -> Callable[..., Controller]:
+    def factory(adaptive: bool = True, settings: YoulaSettings | None = None, **gains: Any) -> Controller:
+        return YoulaController(feedforward, adaptive, settings, **gains)
+
+    return factory
+
+
+register("fb", _youla(False), "the paper's feedback-only SVD/Youla image loop (Eq. (53)-(62))", youla_settings=True)
+register(
+    "ff+fb",
+    _youla(True),
+    "the paper's feedforward (Eq. (47)-(49)) + SVD/Youla image feedback (Eq. (53)-(62))",
+    youla_settings=True,
+)

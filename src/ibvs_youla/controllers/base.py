@@ -1,0 +1,187 @@
+"""The controller role of the servo loop: what a controller receives, what it returns.
+
+A servo loop (:func:`ibvs_youla.simulate`) has four roles: a *sensor* and a *plant* on the
+world side (they hold the true models), *actuation* between command types, and a
+*controller* that holds its own beliefs. This module defines the controller's side of
+that contract, so a controller depends on nothing in the simulation:
+
+* :class:`ServoTask` — given once at :meth:`Controller.reset`: the controller's *own*
+  models (arm, camera, markers, hand-eye transform inside the arm) and the goal (target
+  features as measured at the target, target camera pose, start and target joints) and
+  the loop's periods. By default they equal the truth; perturbing them studies
+  calibration error and model mismatch without touching the loop.
+* :class:`CameraFrame` — each camera frame: features and per-point visibility.
+* :class:`JointReading` — each joint tick: encoder angles and joint speeds (``None`` on a
+  plant without joints, the free-flying camera).
+* :class:`CommandType` — what the controller returns each tick: joint torque [N m],
+  joint velocity [rad/s], joint position reference [rad] or camera twist [v; w] in the
+  camera frame [m/s, rad/s]. The loop converts it to what the plant accepts.
+
+A controller is called twice per cycle: :meth:`Controller.update` at camera rate with a
+frame (the image-based part), then :meth:`Controller.command` at every tick (joint rate
+on an arm, camera rate on the free-flying camera), whose value is held until the next
+tick (zero-order hold).
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+from typing import Any, ClassVar, NamedTuple
+
+import numpy as np
+
+__all__ = ["CameraFrame", "CommandType", "Controller", "JointReading", "ServoTask"]
+
+
+class CommandType(str, enum.Enum):
+    """The quantity a controller commands, and the name it is recorded under in a result."""
+
+    JOINT_TORQUE = "joint_torque"  # tau (n,) [N m]
+    JOINT_VELOCITY = "joint_velocity"  # dq_ref (n,) [rad/s]
+    JOINT_POSITION = "joint_position"  # q_ref (n,) [rad]
+    CAMERA_TWIST = "camera_twist"  # [v; w] (6,) in the camera frame [m/s; rad/s]
+
+    @property
+    def signal(self) -> str:
+        """Name of the recorded signal (``tau``, ``dq_ref``, ``q_ref``, ``camera_twist``)."""
+        return _SIGNAL_NAMES[self]
+
+    @property
+    def unit(self) -> str:
+        """Unit of the command's entries."""
+        return _UNITS[self]
+
+    @classmethod
+    def parse(cls, value: Any) -> CommandType:
+        """A CommandType from itself or its string value; anything else raises InvalidParameterError."""
+        from ..exceptions import InvalidParameterError
+
+        try:
+            return cls(value)
+        except ValueError:
+            raise InvalidParameterError(
+                "command_type", value, " or ".join(repr(c.value) for c in cls)
+            ) from None
+
+
+_SIGNAL_NAMES = {
+    CommandType.JOINT_TORQUE: "tau",
+    CommandType.JOINT_VELOCITY: "dq_ref",
+    CommandType.JOINT_POSITION: "q_ref",
+    CommandType.CAMERA_TWIST: "camera_twist",
+}
+_UNITS = {
+    CommandType.JOINT_TORQUE: "N m",
+    CommandType.JOINT_VELOCITY: "rad/s",
+    CommandType.JOINT_POSITION: "rad",
+    CommandType.CAMERA_TWIST: "m/s, rad/s",
+}
+
+
+class CameraFrame(NamedTuple):
+    """One camera frame as the controller receives it (a named tuple: cheap at camera rate).
+
+    Attributes:
+        t: Capture time [s].
+        features: Image features (m,), point-major: [u_l, u_r, v] per point for a stereo
+            camera (Eq. (24)), [u, v] for a monocular one [m on the sensor; normalized
+            coordinates x = X/Z, y = Y/Z for ``PinholeCamera.normalized()``].
+        visible: Per-point physical visibility (n,) (in front, in view, in depth range).
+    """
+
+    t: float
+    features: np.ndarray
+    visible: np.ndarray
+
+
+class JointReading(NamedTuple):
+    """Encoder reading at one joint tick (a named tuple: cheap at joint rate).
+
+    Attributes:
+        t: Time [s].
+        q: Encoder joint angles (n,) [rad] (the true angles minus any unseen offset).
+        dq: Joint speeds (n,) [rad/s].
+    """
+
+    t: float
+    q: np.ndarray
+    dq: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class ServoTask:
+    """What a controller is told at reset: its own models and the goal.
+
+    Attributes:
+        camera: The controller's camera model (a ``StereoCamera`` or ``PinholeCamera``).
+        markers_O: The controller's marker coordinates (n, 3) in the base frame [m].
+        feature_target: Target features (m,), as measured by the camera at the target.
+        T_O_C_target: Target camera pose in the base frame (4, 4) [m].
+        tick_period: Period of :meth:`Controller.command` calls [s].
+        frame_period: Period of camera frames and :meth:`Controller.update` calls [s].
+        virtual_points: Markers may lie behind the camera (the paper's virtual points).
+        arm: The controller's arm model (kinematics, dynamics, hand-eye transform T_E_C);
+            ``None`` on the free-flying camera.
+        q_start: Encoder reading at the start (n,) [rad]; ``None`` without an arm.
+        q_target: Joint configuration of the target (n,) [rad]; ``None`` without an arm.
+        T_O_C_start: Camera pose at the start (4, 4), as the controller believes it.
+    """
+
+    camera: Any
+    markers_O: np.ndarray
+    feature_target: np.ndarray
+    T_O_C_target: np.ndarray
+    tick_period: float
+    frame_period: float
+    virtual_points: bool = False
+    arm: Any = None
+    q_start: np.ndarray | None = None
+    q_target: np.ndarray | None = None
+    T_O_C_start: np.ndarray | None = None
+
+    @property
+    def n_points(self) -> int:
+        """Number of markers."""
+        return int(self.markers_O.shape[0])
+
+    @property
+    def ticks_per_frame(self) -> int:
+        """Ticks per camera frame (1 on the free-flying camera)."""
+        return round(self.frame_period / self.tick_period)
+
+
+class Controller:
+    """Base class of servo controllers; subclass it and override what you need.
+
+    Class attributes:
+        command_type: What :meth:`command` returns (a :class:`CommandType`).
+        name: Short identifier stored in the result's metadata.
+
+    A subclass usually overrides :meth:`reset` (build what depends on the task),
+    :meth:`update` (use a camera frame) and :meth:`command` (return the held command).
+    :meth:`signals` declares extra signals to record at tick rate, :meth:`spec` the
+    parameters stored with the result.
+    """
+
+    command_type: ClassVar[CommandType] = CommandType.CAMERA_TWIST
+    name: ClassVar[str] = "controller"
+
+    def reset(self, task: ServoTask) -> None:
+        """Start a run: keep the task (the controller's models and goal)."""
+        self.task = task
+
+    def update(self, frame: CameraFrame, reading: JointReading | None) -> None:
+        """Use one camera frame (camera rate); ``reading`` is None without joints."""
+
+    def command(self, reading: JointReading | None) -> np.ndarray:
+        """The command for this tick, held until the next (see :attr:`command_type`)."""
+        raise NotImplementedError(f"{type(self).__name__}.command")
+
+    def signals(self) -> dict[str, np.ndarray]:
+        """Extra signals to record at this tick, name -> array of a fixed shape (none by default)."""
+        return {}
+
+    def spec(self) -> dict[str, Any]:
+        """JSON-serialisable parameters of this controller, stored in the result."""
+        return {"name": self.name, "class": f"{type(self).__module__}.{type(self).__qualname__}"}

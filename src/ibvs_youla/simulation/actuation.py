@@ -1,0 +1,160 @@
+"""Actuation: converting a controller's command into what a plant accepts.
+
+Commands form one chain, each link an adapter that runs at every tick with the encoder
+reading and the controller's *own* arm model (never the true one):
+
+    camera twist [v; w] --(J_C^+)--> joint velocity --(integrate)--> joint position
+    reference --(the paper's inner loop, Eq. (33)-(46))--> joint torque
+
+* :class:`TwistToJointVelocity`: dq_ref = J_C(q)^+ [v; w], J_C the LOCAL camera Jacobian of
+  the controller's arm at the encoder reading, its pseudo-inverse damped near
+  singularities (:class:`~ibvs_youla.control.singular_values.SingularValuePolicy`).
+* :class:`VelocityToPosition`: q_ref[k] = q_ref[k-1] + dt dq_ref[k], from q_ref = q(0).
+* :class:`InnerLoopActuator`: v = G_C(z)[q_ref - q] (Eq. (41)-(46), ERRATA 8; Tustin) and the
+  feedback linearization tau = M(q) v + h(q, dq) (Eq. (33)) with the controller's arm model,
+  so every controller that commands joints runs through the paper's inner loop on the
+  dynamic arm.
+
+:func:`actuation_chain` walks the chain from the controller's command type to the first
+type the plant accepts, or raises :class:`~ibvs_youla.exceptions.IncompatibleCommandError`
+naming both (a joint command cannot drive a camera without an arm).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..control.inner import InnerLoopDesign
+from ..control.singular_values import SingularValuePolicy
+from ..controllers.base import CommandType, JointReading
+from ..exceptions import IncompatibleCommandError
+
+__all__ = [
+    "InnerLoopActuator",
+    "TwistToJointVelocity",
+    "VelocityToPosition",
+    "actuation_chain",
+]
+
+_CHAIN = (
+    CommandType.CAMERA_TWIST,
+    CommandType.JOINT_VELOCITY,
+    CommandType.JOINT_POSITION,
+    CommandType.JOINT_TORQUE,
+)
+
+
+class TwistToJointVelocity:
+    """Camera twist -> joint velocity through the controller's arm: dq_ref = J_C(q)^+ [v; w].
+
+    Args:
+        arm: The controller's arm model (``camera_jacobian``).
+        policy: Pseudo-inverse of J_C near singularities (default: damped, lambda = 1e-3 sigma_max).
+    """
+
+    output_type = CommandType.JOINT_VELOCITY
+
+    def __init__(self, arm: Any, policy: SingularValuePolicy | None = None) -> None:
+        self._arm = arm
+        self._policy = SingularValuePolicy() if policy is None else policy
+
+    def __call__(self, twist: np.ndarray, reading: JointReading) -> np.ndarray:
+        """dq_ref (n,) [rad/s] for the twist [v; w] (6,) in the camera frame at the encoder reading."""
+        return self._policy.pseudo_inverse(self._arm.camera_jacobian(reading.q)) @ twist
+
+
+class VelocityToPosition:
+    """Joint velocity -> joint position reference: q_ref[k] = q_ref[k-1] + dt dq_ref[k].
+
+    Args:
+        q_start: Reference at the start (n,) [rad], the encoder reading.
+        dt: Tick period [s].
+    """
+
+    output_type = CommandType.JOINT_POSITION
+
+    def __init__(self, q_start: np.ndarray, dt: float) -> None:
+        self._q_ref = np.array(q_start, dtype=float)
+        self._dt = float(dt)
+
+    def __call__(self, dq_ref: np.ndarray, reading: JointReading) -> np.ndarray:
+        """The integrated reference (n,) [rad]."""
+        self._q_ref = self._q_ref + self._dt * dq_ref
+        return self._q_ref
+
+
+class InnerLoopActuator:
+    """Joint position reference -> joint torque: the paper's inner loop (Eq. (33)-(46)).
+
+    Args:
+        arm: The controller's arm model (feedback linearization, Eq. (33)).
+        tau_in: Inner-loop time constant [s] (Eq. (41), (63)).
+        dt: Joint-loop period [s] (Tustin discretization of G_C).
+    """
+
+    output_type = CommandType.JOINT_TORQUE
+
+    def __init__(self, arm: Any, tau_in: float, dt: float) -> None:
+        self._arm = arm
+        self._inner = InnerLoopDesign(tau_in).discrete_controller(dt, arm.nq)
+
+    def __call__(self, q_ref: np.ndarray, reading: JointReading) -> np.ndarray:
+        """tau = M(q) G_C(z)[q_ref - q] + h(q, dq) (n,) [N m], from one RNEA pass."""
+        q, dq = reading.q, reading.dq
+        v = self._inner._step(q_ref - q)
+        return self._arm._inverse_dynamics(q, dq, v)
+
+
+def actuation_chain(
+    command_type: CommandType,
+    plant: Any,
+    *,
+    arm: Any = None,
+    q_start: np.ndarray | None = None,
+    tau_in: float = 0.01,
+    dt: float = 1e-3,
+) -> list[Any]:
+    """Adapters from ``command_type`` to the first type along the chain that ``plant`` accepts.
+
+    Args:
+        command_type: What the controller commands.
+        plant: The plant (``accepts``, ``name``); its input is set with ``use_input``.
+        arm: The controller's arm model (needed by every adapter).
+        q_start: Encoder reading at the start (the velocity integrator's initial value).
+        tau_in: Inner-loop time constant [s].
+        dt: Tick period [s].
+
+    Returns:
+        The adapters to apply in order (empty when the plant takes the command as it is).
+
+    Raises:
+        IncompatibleCommandError: no adapter path, or the path needs an arm the task lacks.
+    """
+    command_type = CommandType.parse(command_type)
+    accepted = tuple(plant.accepts)
+    chain: list[Any] = []
+    current = command_type
+    for nxt in _CHAIN[_CHAIN.index(command_type) + 1 :]:
+        if current in accepted:
+            break
+        if arm is None:
+            break
+        if nxt is CommandType.JOINT_VELOCITY:
+            chain.append(TwistToJointVelocity(arm))
+        elif nxt is CommandType.JOINT_POSITION:
+            chain.append(VelocityToPosition(q_start, dt))
+        else:
+            chain.append(InnerLoopActuator(arm, tau_in, dt))
+        current = nxt
+    if current not in accepted:
+        why = "the controller has no arm model to convert it" if arm is None else "no adapter converts it"
+        raise IncompatibleCommandError(
+            command_type.value, plant.name, [a.value for a in accepted],
+            f"the controller commands {command_type.value} but the {plant.name!r} plant accepts "
+            f"{' or '.join(a.value for a in accepted)} and {why} (chain: "
+            f"{' -> '.join(c.value for c in _CHAIN)})",
+        )
+    plant.use_input(current)
+    return chain

@@ -1,0 +1,146 @@
+"""The servo loop: sensor, controller, actuation and plant, ticking with zero-order holds.
+
+Two periodic events (sampled-data semantics): every tick (period ``dt``: the joint rate on
+an arm, the camera rate on the free-flying camera) reads the plant; every
+``ticks_per_frame``-th tick the sensor takes a frame from the true camera pose and the
+controller updates on it. Then, every tick, in this order:
+
+1. the controller's command (held until the next tick);
+2. the actuation chain turns it into what the plant accepts (e.g. the paper's inner loop
+   into torque), each link with the controller's own models;
+3. the sample is recorded (every ``record_every``-th tick and the last);
+4. the plant integrates over dt with the command held.
+
+A run ends early, with a status in the result rather than an exception, when a marker
+goes behind the camera or its disparity vanishes (``"markers_lost"``) or the controller's
+estimate fails (``"estimate_failed"``, e.g. no IK branch within the joint limits reaches
+the pose seen, Eq. (62)). The loop times its phases (wall clock, summed over the run) and stores them in
+``metadata["phase_seconds"]``: ``frame`` (the true camera pose, the sensor and the
+controller's image update), ``control`` (the command at tick rate, the actuation chain,
+recording) and ``plant`` (integration). A diverging plant raises
+:class:`~ibvs_youla.exceptions.SimulationDivergedError` with the samples recorded so far in
+``error.partial``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..controllers.base import Controller
+from ..exceptions import (
+    InvalidDisparityError,
+    PointBehindCameraError,
+    SimulationDivergedError,
+    UnreachablePoseError,
+)
+from .results import ResultRecorder, SimulationResult
+
+__all__ = ["ServoLoop"]
+
+
+@dataclass
+class ServoLoop:
+    """One run of the four roles; built by :func:`~ibvs_youla.simulate`, run once.
+
+    Attributes:
+        controller: Already reset with its task.
+        sensor: ``measure(T_O_C, t) -> CameraFrame``.
+        plant: ``reading()``, ``camera_pose()``, ``apply(command, dt)``, ``signals()``.
+        chain: Actuation adapters, ``adapter(command, reading) -> command``.
+        dt: Tick period [s].
+        n_ticks: Number of plant steps (the run records ticks 0..n_ticks).
+        ticks_per_frame: Ticks per camera frame.
+        record_every: Keep every n-th tick sample (and the last).
+        recorder: Receives the samples.
+        command_signals: Names under which each command along the chain is recorded.
+    """
+
+    controller: Controller
+    sensor: Any
+    plant: Any
+    chain: list[Any]
+    dt: float
+    n_ticks: int
+    ticks_per_frame: int
+    record_every: int
+    recorder: ResultRecorder
+    command_signals: tuple[str, ...]
+
+    def run(self, progress: bool = False, label: str = "simulate") -> SimulationResult:
+        """Run to the end or to an early stop; return the result with its status."""
+        bar = None
+        if progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=self.n_ticks, unit="tick", desc=label, leave=False)
+        self._reason = ""
+        self.phase_seconds: dict[str, float] = {}
+        try:
+            # A diverging state raises from the plant; numpy's overflow warnings on the way are noise.
+            with np.errstate(all="ignore"):
+                status = self._ticks(bar)
+        except SimulationDivergedError as err:
+            err.partial = self.recorder.result(status="diverged", extra_metadata={"error": str(err)})
+            raise
+        finally:
+            if bar is not None:
+                bar.close()
+        extra: dict[str, Any] = {"phase_seconds": self.phase_seconds}
+        if status != "complete":
+            extra["error"] = self._reason
+        return self.recorder.result(status=status, extra_metadata=extra)
+
+    def _ticks(self, bar: Any) -> str:
+        controller, sensor, plant, chain, dt = self.controller, self.sensor, self.plant, self.chain, self.dt
+        record, record_frame = self.recorder.record, self.recorder.record_frame
+        n_ticks, every, record_every = self.n_ticks, self.ticks_per_frame, self.record_every
+        names = self.command_signals
+        clock = time.perf_counter
+        frame = None
+        phases = self.phase_seconds = {"frame": 0.0, "control": 0.0, "plant": 0.0}
+        t_tick = clock()
+        for k in range(n_ticks + 1):
+            t = k * dt
+            reading = plant.reading()
+            is_frame = k % every == 0
+            if is_frame:
+                T_O_C = plant.camera_pose()
+                try:
+                    frame = sensor.measure(T_O_C, t)
+                    tic = clock()
+                    controller.update(frame, reading)
+                    elapsed = clock() - tic
+                except (PointBehindCameraError, InvalidDisparityError) as err:
+                    self._reason = f"t = {t:.6g} s: {err}"
+                    return "markers_lost"
+                except UnreachablePoseError as err:
+                    self._reason = f"t = {t:.6g} s: Eq. (62) failed: {err}"
+                    return "estimate_failed"
+                record_frame(t, frame.features, frame.visible, elapsed)
+            t_frame = clock()
+            command = controller.command(reading)
+            commands = [command]
+            for adapter in chain:
+                command = adapter(command, reading)
+                commands.append(command)
+            if k % record_every == 0 or k == n_ticks:
+                signals = plant.signals()
+                signals.update(zip(names, commands, strict=True))
+                signals.update(controller.signals())
+                pose = T_O_C if is_frame else plant.camera_pose()
+                record(t, pose, frame.features, frame.visible, signals)  # type: ignore[union-attr]
+            t_control = clock()
+            if k < n_ticks:
+                plant.apply(command, dt)
+            t_plant = clock()
+            phases["frame"] += t_frame - t_tick
+            phases["control"] += t_control - t_frame
+            phases["plant"] += t_plant - t_control
+            t_tick = t_plant
+            if bar is not None and k % 1000 == 0 and k:
+                bar.update(1000)
+        return "complete"

@@ -3,7 +3,8 @@
 Implements Li & Assadian's feedforward + Youla-parameterized stereo image-based
 visual servoing on Pinocchio rigid-body dynamics. The data flows
 model (arm, camera) -> estimation (stereo pose, hand-eye) -> control (inner,
-feedforward, outer) -> simulation -> analysis. See docs/conventions.md for
+feedforward, outer designs) -> controllers (the servo laws, by name) -> simulation
+(sensor, plants, actuation, the loop) -> analysis. See docs/conventions.md for
 frames, units and feature ordering.
 
 Public names are imported lazily (PEP 562), so ``import ibvs_youla`` stays cheap
@@ -39,12 +40,15 @@ _LAZY: dict[str, str] = {
     # simulation
     "Scenario": ".scenarios",
     "simulate": ".simulation.simulate",
+    "Beliefs": ".simulation.simulate",
+    "SimulationSettings": ".simulation.settings",
     "SimulationResult": ".simulation.results",
 }
-_SUBMODULES = {"scenarios", "model", "estimation", "control", "simulation", "analysis"}
+_SUBMODULES = {"scenarios", "model", "estimation", "control", "controllers", "simulation", "analysis"}
 
 __all__ = [
     "Arm",
+    "Beliefs",
     "EyeInHand",
     "FeedforwardDesign",
     "IbvsYoulaError",
@@ -53,6 +57,7 @@ __all__ = [
     "PinholeCamera",
     "Scenario",
     "SimulationResult",
+    "SimulationSettings",
     "SingularValuePolicy",
     "StereoCamera",
     "Visibility",
@@ -60,6 +65,7 @@ __all__ = [
     "analysis",
     "calibrate_hand_eye",
     "control",
+    "controllers",
     "estimation",
     "exceptions",
     "model",
@@ -87,7 +93,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
-    from . import scenarios
+    from . import controllers, scenarios
     from .control.feedforward import FeedforwardDesign
     from .control.inner import InnerLoopDesign
     from .control.outer import OuterLoopDesign
@@ -99,4 +105,5 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .model.camera import PinholeCamera, StereoCamera, Visibility
     from .scenarios import Scenario
     from .simulation.results import SimulationResult
-    from .simulation.simulate import simulate
+    from .simulation.settings import SimulationSettings
+    from .simulation.simulate import Beliefs, simulate

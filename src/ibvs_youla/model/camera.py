@@ -127,6 +127,7 @@ class _Sensor:
     depth_range: tuple[float, float] = (0.5, 25.0)  # [m], Table A3
     frame_rate: float = 30.0  # [Hz]
     name: str = field(default="custom", compare=False)
+    unbounded_view: bool = False  # no field-of-view limit: every point in front and in depth range is seen
 
     def __post_init__(self) -> None:
         for key in ("focal_length", "sensor_width", "sensor_height", "pixel_pitch", "frame_rate"):
@@ -146,6 +147,9 @@ class _Sensor:
         if not lo < hi:
             raise InvalidParameterError("depth_range", self.depth_range, "(min, max) with 0 <= min < max [m]")
         object.__setattr__(self, "depth_range", (lo, hi))
+        if not isinstance(self.unbounded_view, (bool, np.bool_)):
+            raise InvalidParameterError("unbounded_view", self.unbounded_view, "True or False")
+        object.__setattr__(self, "unbounded_view", bool(self.unbounded_view))
 
     @property
     def resolution(self) -> tuple[int, int]:
@@ -229,10 +233,11 @@ class _Sensor:
         Fiz = np.where(front, self.focal_length / np.where(front, Z, 1.0), 0.0)
         fov = front.copy()
         v_px = Y * Fiz / self.pixel_pitch + self.principal_point[1]
-        for x0 in self._lens_x:
+        for x0 in () if self.unbounded_view else self._lens_x:
             u_px = self._u_to_px((X - x0) * Fiz, Y * Fiz)
             fov &= (u_px >= 0) & (u_px <= self.sensor_width / self.pixel_pitch)
-        fov &= (v_px >= 0) & (v_px <= self.sensor_height / self.pixel_pitch)
+        if not self.unbounded_view:
+            fov &= (v_px >= 0) & (v_px <= self.sensor_height / self.pixel_pitch)
         flags = [a.copy() for a in (front, fov, (Z >= self.depth_range[0]) & (Z <= self.depth_range[1]), Z)]
         for a in flags:
             a.flags.writeable = False
@@ -252,7 +257,7 @@ class _Sensor:
         out = []
         for X, Y, Z in P_C.tolist():
             ok = Z >= MIN_ABS_DEPTH and z_min <= Z <= z_max
-            if ok:
+            if ok and not self.unbounded_view:
                 Fiz = F / Z
                 v = Y * Fiz
                 ok = 0 <= v / pitch + v0 <= v_max and all(
@@ -352,6 +357,19 @@ class PinholeCamera(_Sensor):
     ) -> PinholeCamera:
         """One lens of `StereoCamera.zed2` (same arguments), placed at the origin of its frame."""
         return cls(**_zed_intrinsics(preset, mode, frame_rate))
+
+    @classmethod
+    def normalized(cls, frame_rate: float = 30.0) -> PinholeCamera:
+        """Normalized image coordinates: focal length 1, no field-of-view limit, any depth > 0.
+
+        Features are x = X/Z, y = Y/Z, as ViSP's ``vpFeaturePoint`` (the classical IBVS
+        literature). The sensor extent and pixel pitch are nominal (2 x 2, pitch 1): pixel
+        conversions are not meaningful for this camera.
+        """
+        return cls(
+            focal_length=1.0, sensor_width=2.0, sensor_height=2.0, pixel_pitch=1.0, principal_point=(1.0, 1.0),
+            depth_range=(0.0, MAX_ABS_DEPTH), frame_rate=frame_rate, name="normalized", unbounded_view=True,
+        )
 
     def back_project(self, p: object, Z: object, allow_behind: bool = False) -> np.ndarray:
         """Points (n, 3) [m] from rows [u, v] [m] and depths Z (n,) or scalar [m]: X = u Z / F, Y = v Z / F.

@@ -52,3 +52,9 @@ def test_readme_python_snippets_run(tmp_path, monkeypatch):
     assert lines[0] == "complete"
     assert 1e-5 < float(lines[1]) < 1e-3
     assert "(3 tau s + 1)" in (ROOT / "README.md").read_text() and "0.03 s + 1" in out.getvalue()
+    # The user-written controller of "One servo loop for every method": a constant twist on the
+    # free-flying camera ends exactly on its target (0.25 m/s for 2 s along -z).
+    assert "complete (201, 8)" in lines
+    mm, deg = namespace["result"].final_pose_error()
+    assert mm < 1e-9 and deg < 1e-9
+    assert namespace["result"].metadata["plant"] == "free-camera"

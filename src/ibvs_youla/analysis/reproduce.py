@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from .._validation import positive
+from ..controllers.youla import VARIANTS
 from ..exceptions import InvalidParameterError, SimulationDivergedError
 from ..model.arm import Arm
 from ..scenarios import get as get_scenario
@@ -38,7 +39,7 @@ __all__ = ["PAPER_FIGURES", "Reproduction", "findings", "reproduce", "run_key"]
 
 # Which paper figures a scenario's comparison plots correspond to (joints, image).
 PAPER_FIGURES = {"paper-1": (13, 14), "paper-2": (15, 16)}
-CONTROLLER_LABELS = {"fb": "feedback only", "ff+fb": "feedforward + feedback"}
+CONTROLLER_LABELS = VARIANTS  # the paper's two controllers, registry name -> label
 SETTLING_ATOL_M = 1e-7  # absolute floor of the 2 % band on the sensor [m] (~0.04 px)
 
 
@@ -174,7 +175,7 @@ def reproduce(
         get_scenario(name)  # fail early on an unknown name
         by_variant: dict[tuple[str, bool], SimulationResult] = {}
         for adaptive in (False, True):
-            for controller in ("fb", "ff+fb"):
+            for controller in VARIANTS:
                 key = run_key(name, controller, adaptive)
                 result = _run(
                     out / "runs" / f"{key}.npz",

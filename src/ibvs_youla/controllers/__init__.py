@@ -19,7 +19,7 @@ from typing import Any
 
 from ..exceptions import InvalidParameterError
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
-from .youla import YoulaController, YoulaSettings
+from .youla import VARIANTS, YoulaController, YoulaSettings
 
 __all__ = [
     "CameraFrame",
@@ -27,6 +27,7 @@ __all__ = [
     "Controller",
     "JointReading",
     "ServoTask",
+    "VARIANTS",
     "YoulaController",
     "YoulaSettings",
     "describe",
@@ -107,10 +108,7 @@ def _youla(feedforward: bool) -> Callable[..., Controller]:
     return factory
 
 
-register("fb", _youla(False), "the paper's feedback-only SVD/Youla image loop (Eq. (53)-(62))", youla_settings=True)
-register(
-    "ff+fb",
-    _youla(True),
-    "the paper's feedforward (Eq. (47)-(49)) + SVD/Youla image feedback (Eq. (53)-(62))",
-    youla_settings=True,
-)
+register("fb", _youla(False), f"the paper's controller, {VARIANTS['fb']}: SVD/Youla image loop (Eq. (53)-(62))",
+         youla_settings=True)
+register("ff+fb", _youla(True), f"the paper's controller, {VARIANTS['ff+fb']} (Eq. (47)-(49), (53)-(62))",
+         youla_settings=True)

@@ -41,7 +41,10 @@ from ..exceptions import InvalidParameterError
 from ..model.camera import StereoCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
 
-__all__ = ["BRANCH_PRIORS", "FEEDFORWARD_KINDS", "LINEARIZE_AT", "YoulaController", "YoulaSettings"]
+__all__ = ["BRANCH_PRIORS", "FEEDFORWARD_KINDS", "LINEARIZE_AT", "VARIANTS", "YoulaController", "YoulaSettings"]
+
+# The paper's two controllers: registry name -> label (feedback only; feedforward + feedback).
+VARIANTS = {"fb": "feedback only", "ff+fb": "feedforward + feedback"}
 
 FEEDFORWARD_KINDS = ("paper", "smooth")
 LINEARIZE_AT = ("start", "target")

@@ -70,3 +70,12 @@ def test_reached_at_is_when_the_error_enters_tolerance_for_good():
     assert outcome.reached_at_s == t[np.searchsorted(t, t_cross)]
     assert 0.0 <= outcome.reached_at_s - t_cross < t[1] - t[0]
     assert classify(_result(np.full(1001, 1e-4))).reached_at_s == np.inf
+
+
+def test_describe_names_the_window_the_verdict_used():
+    features = np.outer(np.exp(-np.linspace(0.0, 5.0, 101)), np.ones(9)) * 1e-3
+    result = synthetic_result(features, np.zeros(9))
+    assert "over the last 20 %" in classify(result).describe()
+    wide = classify(result, Tolerances(window=0.5))
+    assert wide.window == 0.5 and "over the last 50 %" in wide.describe()
+    assert wide.error_change != classify(result).error_change

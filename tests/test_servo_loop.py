@@ -220,3 +220,23 @@ def test_markers_behind_the_camera_end_the_run_with_a_status():
                          plant="free-camera", camera=PinholeCamera.normalized())
     assert result.status == "markers_lost" and "depth" in result.metadata["error"]
     assert result.t[-1] == pytest.approx(1.89, abs=1e-9)  # the nearest marker (Z = 1.9 m) is passed at 1.9 s
+
+
+# --------------------------------------------------------------------------- command line and config
+def test_cli_runs_the_paper_controller_on_the_kinematic_arm(capsys, tmp_path):
+    import json
+
+    from ibvs_youla.cli import main
+
+    config = tmp_path / "k.toml"
+    config.write_text('[scenario]\npreset = "physical-2"\n[run]\nplant = "kinematic"\nduration = 0.05\n')
+    assert main(["simulate", "--config", str(config), "--out", str(tmp_path / "k"), "--no-plots"]) == 0
+    text = capsys.readouterr().out
+    assert "on the kinematic plant" in text and "this plant takes no torque" in text
+    summary = json.loads((tmp_path / "k" / "summary.json").read_text())
+    assert summary["peak_torque_ratio"] is None and len(summary["peak_joint_speed_ratio"]) == 6
+    meta = iy.SimulationResult.load(tmp_path / "k" / "result.npz").metadata
+    assert (meta["plant"], meta["controller"]) == ("kinematic", "ff+fb")
+    assert main(["simulate", "--scenario", "physical-2", "--plant", "free-camera", "--duration", "0.01",
+                 "--out", str(tmp_path / "f"), "--no-plots"]) == 1  # joint commands cannot drive a bare camera
+    assert "'free-camera' plant accepts camera_twist" in capsys.readouterr().err

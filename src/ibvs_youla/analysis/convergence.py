@@ -68,8 +68,8 @@ class Outcome:
     Attributes:
         kind: ``"reached"``, ``"stalled"``, ``"converging"``, or the status of a run that
             stopped early: ``"markers_lost"``, ``"estimate_failed"``, ``"diverged"``.
-        final_image_error_m: Largest final |e| over the nine coordinates [m].
-        point_errors_m: Largest final |e| per marker (3,) [m]: which points are unmatched.
+        final_image_error_m: Largest final |e| over the image coordinates [m].
+        point_errors_m: Largest final |e| per marker (n,) [m]: which points are unmatched.
         position_error_mm: Final camera position error [mm].
         rotation_error_deg: Final camera rotation error [deg].
         error_change: Relative change of ||e|| over the trailing window,
@@ -77,6 +77,8 @@ class Outcome:
         duration: Simulated time covered [s].
         reached_at_s: Time from which image and pose errors stay within tolerance until
             the end [s]; ``inf`` if the run ends outside it.
+        window: The trailing fraction of the run over which ``error_change`` was measured
+            (the ``Tolerances.window`` the verdict used).
     """
 
     kind: str
@@ -87,6 +89,7 @@ class Outcome:
     error_change: float
     duration: float
     reached_at_s: float = float("inf")
+    window: float = Tolerances.window
 
     def describe(self) -> str:
         """One line for tables and notes."""
@@ -95,7 +98,7 @@ class Outcome:
             f"{self.kind} after {self.duration:g} s: max|e| = {self.final_image_error_m:.2e} m "
             f"(per point {pts}), pose error {self.position_error_mm:.3g} mm / "
             f"{self.rotation_error_deg:.3g} deg, ||e|| change over the last "
-            f"{100 * Tolerances().window:.0f} %: {100 * self.error_change:+.2g} %"
+            f"{100 * self.window:.0f} %: {100 * self.error_change:+.2g} %"
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -109,11 +112,11 @@ def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> 
     """Classify a run as reached / stalled / converging (see the module docstring)."""
     tol = Tolerances() if tolerances is None else tolerances
     e = result.feature_error
-    n_points = e.shape[1] // 3
+    n_points = result.n_points
     status = result.metadata.get("status", "complete")
     if len(result.t) == 0:  # stopped before the first sample (e.g. markers lost at t = 0)
         nan = float("nan")
-        return Outcome(status, nan, (nan,) * n_points, nan, nan, nan, 0.0, float("inf"))
+        return Outcome(status, nan, (nan,) * n_points, nan, nan, nan, 0.0, float("inf"), tol.window)
     final = np.abs(e[-1])
     position_mm, rotation_deg = result.final_pose_error()
     norms = np.linalg.norm(e, axis=1)
@@ -142,11 +145,12 @@ def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> 
         reached_at_s=reached_at,
         kind=kind,
         final_image_error_m=float(final.max()),
-        point_errors_m=tuple(float(v) for v in final.reshape(n_points, 3).max(axis=1)),
+        point_errors_m=tuple(float(v) for v in final.reshape(n_points, -1).max(axis=1)),
         position_error_mm=float(position_mm),
         rotation_error_deg=float(rotation_deg),
         error_change=change,
         duration=float(t[-1] - t[0]),
+        window=tol.window,
     )
 
 

@@ -182,6 +182,8 @@ def summary(
     """All metrics of one run as a JSON-friendly dict (lists of floats).
 
     Image metrics use the step from the first measured features to ``feature_target``.
+    Joint speed and torque entries are None when the plant has no such signal (the
+    free-flying camera has no joints; the kinematic arm no torque).
 
     Args:
         result: The run.
@@ -191,8 +193,11 @@ def summary(
     """
     target = result.feature_target
     position_mm, rotation_deg = result.final_pose_error()
-    speed, speed_ratio = peak_with_ratio(result.dq, dq_max)
-    torque, torque_ratio = peak_with_ratio(result.tau, tau_max)
+    speed = speed_ratio = torque = torque_ratio = None
+    if "dq" in result.signals:
+        speed, speed_ratio = peak_with_ratio(result.dq, dq_max)
+    if "tau" in result.signals:
+        torque, torque_ratio = peak_with_ratio(result.tau, tau_max)
 
     def _list(a: np.ndarray | None) -> list[float] | None:
         return None if a is None else [float(v) for v in np.atleast_1d(a)]

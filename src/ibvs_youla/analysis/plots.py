@@ -198,11 +198,17 @@ def plot_joint_speeds_torques(result: SimulationResult, arm: Any = None) -> Figu
 
         arm = Arm.irb4600()
     n = result.q.shape[1]
-    fig, axes = _figure(n, 2, _title(result, "joint speeds and torques"), (11.0, 1.5 * n + 1.0), sharex=True)
-    columns = (
-        (np.degrees(result.dq), np.degrees(np.asarray(arm.dq_max, dtype=float)), "dq{} [deg/s]"),
-        (result.tau, np.asarray(arm.tau_max, dtype=float), "tau{} [N m]"),
-    )
+    columns = tuple(
+        column
+        for name, column in (
+            ("dq", lambda: (np.degrees(result.dq), np.degrees(np.asarray(arm.dq_max, dtype=float)), "dq{} [deg/s]")),
+            ("tau", lambda: (result.tau, np.asarray(arm.tau_max, dtype=float), "tau{} [N m]")),
+        )
+        if name in result.signals
+        for column in (column(),)
+    )  # the kinematic arm records no torque
+    fig, axes = _figure(n, len(columns), _title(result, "joint speeds and torques"),
+                        (5.5 * len(columns), 1.5 * n + 1.0), sharex=True)
     for col, (x, limit, label) in enumerate(columns):
         for j in range(n):
             ax = axes[j, col]
@@ -220,14 +226,15 @@ def plot_joint_speeds_torques(result: SimulationResult, arm: Any = None) -> Figu
 def plot_result(
     result: SimulationResult, arm: Any = None, camera: StereoCamera | None = None
 ) -> dict[str, Figure]:
-    """Every run figure, by name (:data:`RESULT_FIGURES` order)."""
-    return {
-        "joint_angles": plot_joint_angles(result),
+    """Every run figure, by name (:data:`RESULT_FIGURES` order); joint figures only for an arm plant."""
+    figures = {
+        "joint_angles": plot_joint_angles(result) if "q" in result.signals else None,
         "image_coordinates": plot_image_coordinates(result),
         "feature_error_norm": plot_feature_error_norm(result),
         "image_plane": plot_image_plane(result, camera),
-        "joint_speeds_torques": plot_joint_speeds_torques(result, arm),
+        "joint_speeds_torques": plot_joint_speeds_torques(result, arm) if "dq" in result.signals else None,
     }
+    return {name: fig for name, fig in figures.items() if fig is not None}
 
 
 def save_result_figures(

@@ -115,4 +115,4 @@ def test_bad_tau(bad):
 
 def test_frozen():
     with pytest.raises(dataclasses.FrozenInstanceError):
-        InnerLoopDesign().tau = 0.02  # type: ignore[misc]
+        InnerLoopDesign().tau_in = 0.02  # type: ignore[misc]

@@ -78,14 +78,14 @@ def _inner(d: InnerLoopDesign) -> list[str]:
     gm, pm, wc = d.margins()
     T = d.complementary_sensitivity()
     return [
-        f"INNER LOOP (Section 6.1, Eq. (41)-(46)), tau_in = {d.tau:g} s",
+        f"INNER LOOP (Section 6.1, Eq. (41)-(46)), tau_in = {d.tau_in:g} s",
         f"  plant       G_P = {format_tf(d.plant())}  (feedback-linearized joint, Eq. (37))",
         f"  controller  G_C = {format_tf(d.controller())}  (ERRATA 8: numerator 3 tau s + 1)",
         f"  T = {format_tf(T)}",
         f"  closed-loop poles {format_roots(d.closed_loop_poles())} rad/s (triple at -1/tau_in); "
         f"zeros of T {format_roots(ct.zeros(T))}",
         f"  margins of L = G_C/s^2: gain {gm:.4g}, phase {pm:.4g} deg at {wc:.4g} rad/s",
-        f"  step of T: {step_summary(T, 20.0 * d.tau)}",
+        f"  step of T: {step_summary(T, 20.0 * d.tau_in)}",
         "  ERRATA 8: the printed numerator 3 tau^2 s + 1 gives poles "
         f"{format_roots(d.closed_loop_poles(printed=True))} (unstable)",
     ]
@@ -170,7 +170,7 @@ def plot_design_of(design: Design) -> Figure:
     if isinstance(design, InnerLoopDesign):
         T = design.complementary_sensitivity()
         bode = {"L = G_C G_P": design.loop_gain(), "T": T, "S": design.sensitivity()}
-        return plot_design(bode, {"T": T}, f"inner loop, tau_in = {design.tau:g} s")
+        return plot_design(bode, {"T": T}, f"inner loop, tau_in = {design.tau_in:g} s")
     if isinstance(design, OuterLoopDesign):
         K, m_T = design.filter_tf(), design.target_tf()
         bode = {"K": K, "K T_in (loop)": K * design.inner_tf(), "m_T": m_T}

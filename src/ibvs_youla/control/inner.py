@@ -39,14 +39,15 @@ class InnerLoopDesign:
     """SISO Youla design of the joint loop, duplicated on every joint (Eq. (36)).
 
     Attributes:
-        tau: Time constant tau_in [s]; the three closed-loop poles sit at -1/tau
-            (paper: 0.01 s, Eq. (63)).
+        tau_in: Time constant [s]; the three closed-loop poles sit at -1/tau_in
+            (paper: 0.01 s, Eq. (63)). (Named as everywhere else in the library: ``tau``
+            alone is never a time constant here, since it names the joint torques.)
     """
 
-    tau: float = 0.01
+    tau_in: float = 0.01
 
     def __post_init__(self) -> None:
-        positive(self.tau, "tau", unit="s")
+        object.__setattr__(self, "tau_in", positive(self.tau_in, "tau_in", unit="s"))
 
     # ------------------------------------------------------------------ transfer functions
     def plant(self) -> ct.TransferFunction:
@@ -55,27 +56,27 @@ class InnerLoopDesign:
 
     def complementary_sensitivity(self) -> ct.TransferFunction:
         """T = (3 tau s + 1)/(tau s + 1)^3 (Eq. (41), (46))."""
-        t = self.tau
+        t = self.tau_in
         return ct.tf([3.0 * t, 1.0], [t**3, 3.0 * t**2, 3.0 * t, 1.0])
 
     def sensitivity(self) -> ct.TransferFunction:
         """S = 1 - T = s^2 (tau^3 s + 3 tau^2)/(tau s + 1)^3 (Eq. (43))."""
-        t = self.tau
+        t = self.tau_in
         return ct.tf([t**3, 3.0 * t**2, 0.0, 0.0], [t**3, 3.0 * t**2, 3.0 * t, 1.0])
 
     def youla(self) -> ct.TransferFunction:
         """Y = T / G_P = s^2 (3 tau s + 1)/(tau s + 1)^3 (Eq. (40), (42) corrected)."""
-        t = self.tau
+        t = self.tau_in
         return ct.tf([3.0 * t, 1.0, 0.0, 0.0], [t**3, 3.0 * t**2, 3.0 * t, 1.0])
 
     def controller(self) -> ct.TransferFunction:
         """G_C = Y / S = (3 tau s + 1)/(tau^3 s + 3 tau^2), maps e = q_ref - q to v (ERRATA 8)."""
-        t = self.tau
+        t = self.tau_in
         return ct.tf([3.0 * t, 1.0], [t**3, 3.0 * t**2])
 
     def printed_controller(self) -> ct.TransferFunction:
         """The printed Eq. (44)-(45), numerator 3 tau^2 s + 1: destabilizes 1/s^2 (ERRATA 8)."""
-        t = self.tau
+        t = self.tau_in
         return ct.tf([3.0 * t**2, 1.0], [t**3, 3.0 * t**2])
 
     def loop_gain(self) -> ct.TransferFunction:
@@ -147,5 +148,5 @@ class InnerLoopDesign:
 
     def _check_dt(self, dt: float) -> None:
         dt = positive(dt, "dt", unit="s")
-        if dt > self.tau:
-            raise InvalidParameterError("dt", dt, f"a sampling period in (0, tau = {self.tau}] s")
+        if dt > self.tau_in:
+            raise InvalidParameterError("dt", dt, f"a sampling period in (0, tau_in = {self.tau_in}] s")

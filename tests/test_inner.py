@@ -100,7 +100,7 @@ def test_discrete_closed_loop_is_exact_zoh():
 def test_discrete_controller_checks_rate():
     d = InnerLoopDesign(0.01)
     assert d.discrete_controller(0.01).n_channels == 6
-    with pytest.raises(InvalidParameterError, match=r"\(0, tau = 0.01\]"):
+    with pytest.raises(InvalidParameterError, match=r"\(0, tau_in = 0.01\]"):
         d.discrete_controller(0.02)
 
 
@@ -108,7 +108,7 @@ def test_discrete_controller_checks_rate():
 def test_bad_tau(bad):
     with pytest.raises(InvalidParameterError, match="tau") as info:
         InnerLoopDesign(bad)
-    assert info.value.name == "tau"
+    assert info.value.name == "tau_in"
     assert "> 0" in info.value.valid
     assert info.value.value is bad
 

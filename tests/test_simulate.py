@@ -1,4 +1,4 @@
-"""Closed-loop behaviour of simulate(): the control-stack issue's acceptance numbers.
+"""Closed-loop behaviour of simulate() with the paper's controller on the dynamic arm, in numbers.
 
 Long runs are shared through module-scoped fixtures so that each is simulated once.
 The numbers pinned for feedback-only runs are what the reproduction measured with the

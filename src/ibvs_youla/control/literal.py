@@ -36,8 +36,8 @@ import control as ct
 import numpy as np
 from scipy.linalg import block_diag
 
-from .._validation import as_array
-from .outer import OuterLoopDesign, _frequencies  # one way: outer does not import this module
+from .._validation import as_array, frequencies
+from .outer import OuterLoopDesign  # one way: outer does not import this module
 
 __all__ = ["LiteralMimo", "LiteralResponse", "literal_matrices", "literal_mimo", "literal_response"]
 
@@ -103,7 +103,7 @@ def literal_matrices(
         printed_order: Build Eq. (58) as printed, U_R M_Y U_L = V^T M_Y U, instead of
             the derived V M_Y U^T (to show that the printed order is wrong).
     """
-    w = _frequencies(omegas)
+    w = frequencies(omegas, "omegas", "G_C has a pole at 0")
     U, s_d, Vt, ctrl = _design_svd(design, J)
     m, n = U.shape[0], Vt.shape[0]
     k = s_d.size

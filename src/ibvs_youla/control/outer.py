@@ -40,7 +40,7 @@ import control as ct
 import numpy as np
 from scipy.optimize import brentq
 
-from .._validation import as_array, positive
+from .._validation import as_array, frequencies, positive
 from ..exceptions import InvalidParameterError
 from .discrete import DiscreteFilter
 from .singular_values import SingularValuePolicy, SvdGains
@@ -140,7 +140,7 @@ class OuterLoopDesign:
         Returns:
             Complex array (n_w, n, m).
         """
-        w = _frequencies(omegas)
+        w = frequencies(omegas, "omegas", "K has a pole at 0")
         P = self.sv_policy.pseudo_inverse(J)
         k = self.filter_tf()(1j * w)
         return k[:, None, None] * P[None, :, :]
@@ -151,13 +151,6 @@ class OuterLoopDesign:
     ) -> OuterLoopController:
         """Discrete outer controller at the camera rate; see :class:`OuterLoopController`."""
         return OuterLoopController(self, dt, n_joints=n_joints, J=J, method=method)
-
-
-def _frequencies(omegas: Any) -> np.ndarray:
-    w = as_array(omegas, "omegas").reshape(-1)
-    if w.size == 0 or np.any(w <= 0.0):
-        raise InvalidParameterError("omegas", omegas, "one or more frequencies > 0 rad/s (K has a pole at 0)")
-    return w
 
 
 class OuterLoopController:

@@ -48,9 +48,9 @@ except ImportError:  # run as a script
 from ibvs_youla import scenarios
 from ibvs_youla.control.literal import literal_mimo
 from ibvs_youla.control.outer import OuterLoopDesign
-from ibvs_youla.model.arm import Arm
-from ibvs_youla.model.camera import StereoCamera
 from ibvs_youla.controllers import JointReading, ServoTask, YoulaController
+from ibvs_youla.model.arm import Arm
+from ibvs_youla.model.camera import StereoCamera, project_points, visible_points
 from ibvs_youla.simulation.sensor import MarkerSensor
 from ibvs_youla.simulation.settings import SimulationSettings
 
@@ -82,7 +82,8 @@ class _Frame:
             T_O_C_target=T_target, tick_period=settings.dt, frame_period=settings.dt,
             virtual_points=sc.virtual_points, arm=arm, q_start=sc.q_start, q_target=sc.q_target,
         )
-        self.controller = YoulaController(feedforward=True, adaptive=True, settings=settings.controller_settings())
+        self.controller = YoulaController(feedforward=True, adaptive=True,
+                                          settings=settings.controller_settings())
         self.controller.reset(self.task)
         self.arm = arm
 
@@ -137,9 +138,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             eye, camera = run.controller._eye, run.controller._eye.camera
             t = [perf_counter()]
             P_C = run.sensor.points_in_camera(run.arm.camera_pose(q_true))
-            p_meas = camera._project_flat(P_C, eye.virtual_points)
+            p_meas = project_points(camera, P_C, eye.virtual_points)
             t.append(perf_counter())
-            camera._visible_each(P_C)
+            visible_points(camera, P_C)
             t.append(perf_counter())
             q_hat = eye._estimate_q(p_meas, q_enc)
             t.append(perf_counter())

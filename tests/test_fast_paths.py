@@ -21,7 +21,7 @@ from ibvs_youla.estimation.eye_in_hand import EyeInHand
 from ibvs_youla.estimation.stereo_pose import rigid_transform_from_points
 from ibvs_youla.exceptions import SimulationDivergedError, UnreachablePoseError
 from ibvs_youla.model.arm import Arm
-from ibvs_youla.model.camera import PinholeCamera, StereoCamera
+from ibvs_youla.model.camera import MIN_ABS_DEPTH, PinholeCamera, StereoCamera, project_points, visible_points
 from ibvs_youla.model.ik import (
     _SINGULAR,
     _TWO_PI,
@@ -202,30 +202,57 @@ SKEWED = StereoCamera(focal_length=2.8e-3, baseline=0.12, sensor_width=5.23e-3, 
                       pixel_pitch=4e-6, skew=3.5, principal_point=(650.0, 355.0))
 
 
+def reference_visibility(cam, P):
+    """(in front, in view, in depth range) of points (n, 3): plain array formulas of Eq. (6), (9)-(11)."""
+    X, Y, Z = P.T
+    front = Z >= MIN_ABS_DEPTH
+    Fiz = cam.focal_length / np.where(front, Z, 1.0)
+    v_px = Y * Fiz / cam.pixel_pitch + cam.principal_point[1]
+    in_view = front & (v_px >= 0) & (v_px <= cam.sensor_height / cam.pixel_pitch)
+    lenses = (0.5 * cam.baseline, -0.5 * cam.baseline) if isinstance(cam, StereoCamera) else (0.0,)
+    for x0 in lenses:
+        u_px = (X - x0) * Fiz / cam.pixel_pitch + cam.skew * (Y * Fiz) / cam.focal_length
+        u_px += cam.principal_point[0]
+        in_view &= (u_px >= 0) & (u_px <= cam.sensor_width / cam.pixel_pitch)
+    if cam.unbounded_view:
+        in_view = front
+    return front, in_view, (Z >= cam.depth_range[0]) & (Z <= cam.depth_range[1])
+
+
 @pytest.mark.parametrize(
-    "cam", [StereoCamera.zed2(), StereoCamera.zed2("zed2", "VGA"), PinholeCamera.zed2(), SKEWED])
-def test_scalar_visibility_equals_visibility_report(cam):
+    "cam", [StereoCamera.zed2(), StereoCamera.zed2("zed2", "VGA"), PinholeCamera.zed2(), SKEWED,
+            PinholeCamera.normalized()])
+def test_visibility_equals_the_array_formulas(cam):
     rng = np.random.default_rng(SEED + 4)
-    agree = []
+    n_visible = 0
     for _ in range(3000):
         P = rng.normal([0.0, 0.0, 3.0], [3.0, 2.0, 4.0], (3, 3))
         if rng.random() < 0.2:
             P[:, 2] = rng.choice([0.0, 1e-10, cam.depth_range[0], cam.depth_range[1]])  # edges
-        agree.append(cam._all_visible(P) == cam.visibility(P).all_visible)
         if rng.random() < 0.3:  # all in view
             P = np.column_stack((rng.uniform(-0.3, 0.3, (3, 2)), rng.uniform(1.0, 5.0, 3)))
-            agree.append(cam._all_visible(P) == cam.visibility(P).all_visible)
-    assert all(agree)
+        front, in_view, in_range = reference_visibility(cam, P)
+        report = cam.visibility(P)
+        np.testing.assert_array_equal(report.in_front, front)
+        np.testing.assert_array_equal(report.in_fov, in_view)
+        np.testing.assert_array_equal(report.in_depth_range, in_range)
+        np.testing.assert_array_equal(visible_points(cam, P), front & in_view & in_range)
+        n_visible += report.all_visible
+    assert 0 < n_visible < 3000
 
 
-def test_flat_projection_and_interaction_are_the_array_versions(camera):
+def test_projection_and_interaction_equal_the_array_formulas(camera):
     rng = np.random.default_rng(SEED + 5)
+    F, b = camera.focal_length, camera.baseline
     for _ in range(100):
         P = rng.normal([0.0, 0.0, 3.0], [1.0, 1.0, 1.0], (3, 3))
         P[:, 2] = np.abs(P[:, 2]) + 0.5
-        np.testing.assert_array_equal(camera._project_flat(P, False), camera.project(P).reshape(-1))
-        u = camera.project(P)
-        np.testing.assert_allclose(camera.triangulate(u), P, rtol=1e-12, atol=0)
+        X, Y, Z = P.T
+        Fiz = F / Z  # Eq. (9)-(11) with ERRATA 12, in the kernel's order of operations
+        literal = np.column_stack(((X - 0.5 * b) * Fiz, (X + 0.5 * b) * Fiz, Y * Fiz))
+        np.testing.assert_array_equal(project_points(camera, P, False), literal.reshape(-1))
+        np.testing.assert_array_equal(camera.project(P), literal)
+        np.testing.assert_allclose(camera.triangulate(literal), P, rtol=1e-12, atol=0)
         L = camera.interaction_matrix(P)
         for i, (X, Y, Z) in enumerate(P):  # literal rows of the docstring, point by point
             for r, x0 in enumerate((0.06, -0.06)):

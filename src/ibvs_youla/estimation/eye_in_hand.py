@@ -18,7 +18,13 @@ import numpy as np
 
 from .._validation import as_array, as_pose
 from ..exceptions import InvalidArrayError, InvalidParameterError
-from ..model.camera import StereoCamera, Visibility
+from ..model.camera import (
+    StereoCamera,
+    Visibility,
+    points_interaction_matrix,
+    project_points,
+    triangulate_points,
+)
 from .stereo_pose import _kabsch_centred, check_marker_geometry
 
 if TYPE_CHECKING:
@@ -89,7 +95,7 @@ class EyeInHand:
 
     def _features_at_pose(self, T_O_C: np.ndarray) -> np.ndarray:
         """`features_at_pose` with ``T_O_C`` a float 4x4 rigid transform (unchecked)."""
-        return self.camera._project_flat(self._points_in_camera_at_pose(T_O_C), self.virtual_points)
+        return project_points(self.camera, self._points_in_camera_at_pose(T_O_C), self.virtual_points)
 
     def features(self, q: np.ndarray) -> np.ndarray:
         """Eye-in-hand map F of Eq. (24): stereo features (3n,) [m] at joint angles q (6,) [rad]."""
@@ -102,12 +108,13 @@ class EyeInHand:
         the arm's LOCAL camera Jacobian (dq to that twist). Rank 5 at wrist singularities (ERRATA 7).
         """
         P_C = self.points_in_camera(q)
-        return self.camera._interaction(P_C, self.virtual_points) @ self.arm.camera_jacobian(q)
+        return points_interaction_matrix(self.camera, P_C, self.virtual_points) @ self.arm.camera_jacobian(q)
 
     def _jacobian(self, q: np.ndarray) -> np.ndarray:
         """`jacobian` from one kinematics pass of the arm (``Arm._camera_pose_and_jacobian``), unchecked."""
         T_O_C, J_C = self.arm._camera_pose_and_jacobian(q)
-        return self.camera._interaction(self._points_in_camera_at_pose(T_O_C), self.virtual_points).dot(J_C)
+        P_C = self._points_in_camera_at_pose(T_O_C)
+        return points_interaction_matrix(self.camera, P_C, self.virtual_points).dot(J_C)
 
     def visibility(self, q: np.ndarray) -> Visibility:
         """Depth sign, field of view and depth range of every marker at q (ERRATA 13)."""
@@ -137,7 +144,7 @@ class EyeInHand:
     def _estimate_camera_pose(self, p_image: np.ndarray) -> np.ndarray:
         """`estimate_camera_pose` with ``p_image`` a finite float (3n,) or (n, 3) array (unchecked)."""
         p = p_image.reshape(p_image.size // 3, 3)
-        return _kabsch_centred(self.camera._triangulate(p, self.virtual_points), self._markers_centred,
+        return _kabsch_centred(triangulate_points(self.camera, p, self.virtual_points), self._markers_centred,
                                self._markers_mean)
 
     def estimate_q(self, p_image: np.ndarray, q_near: np.ndarray) -> np.ndarray:

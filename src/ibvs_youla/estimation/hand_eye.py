@@ -8,18 +8,14 @@ A_i = T_O_E1^-1 T_O_E2 and, with T_C_M the marker pose of Appendix C, B_i = T_C1
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 import pinocchio as pin
 
 from .._geometry import inverse_pose, make_pose, transform_points
 from .._validation import as_array, as_pose, non_negative
 from ..exceptions import CalibrationError, InvalidParameterError
+from ..model.camera import StereoCamera, project_points, triangulate_points
 from .stereo_pose import _kabsch, check_marker_geometry, marker_coordinates
-
-if TYPE_CHECKING:
-    from ..model.camera import StereoCamera
 
 __all__ = ["AXIS_TOL", "calibrate_hand_eye", "simulate_hand_eye_run"]
 
@@ -122,10 +118,10 @@ def simulate_hand_eye_run(
         P_C = transform_points(inverse_pose(arm.camera_pose(q)), markers_O)
         if not camera.visibility(P_C).all_visible:
             continue
-        p = camera._project(P_C, False)
+        p = project_points(camera, P_C, False).reshape(-1, 3)
         if pixel_noise > 0:
             p = camera.from_pixels(camera.to_pixels(p) + rng.normal(0.0, pixel_noise, p.shape))
-        T_C_M.append(_kabsch(P_M, camera._triangulate(p, False)))
+        T_C_M.append(_kabsch(P_M, triangulate_points(camera, p, False)))
         T_O_E.append(arm.flange_pose(q))
         if len(T_O_E) == n_poses:
             break

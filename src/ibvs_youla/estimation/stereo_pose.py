@@ -10,7 +10,6 @@ R = V U^T is a reflection half of the time unless det-corrected.
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,9 +17,7 @@ from .._geometry import make_pose
 from .._linalg import det3_sign, svd
 from .._validation import as_array
 from ..exceptions import DegenerateMarkersError, InvalidArrayError
-
-if TYPE_CHECKING:
-    from ..model.camera import StereoCamera
+from ..model.camera import StereoCamera, triangulate_points
 
 __all__ = [
     "COINCIDENT_TOL",
@@ -203,6 +200,6 @@ def estimate_pose(
         raise InvalidArrayError(
             "p_image", f"an array of shape {p.shape}",
             f"shape ({n}, 3) or ({3 * n},): [u_l, u_r, v] for each of the {n} points of P_ref")
-    P_C = camera._triangulate(p.reshape(n, 3), allow_behind)
+    P_C = triangulate_points(camera, p.reshape(n, 3), allow_behind)
     return _kabsch(P_C, P_ref)
 

@@ -6,6 +6,12 @@ u0 = v0 = 0 form of Eq. 9-10); pixels enter only through the intrinsic matrix of
 (`to_pixels` / `from_pixels`). Pixel coordinates run from the top-left sensor corner: pixel i
 covers [i, i + 1). The stereo frame {C} sits mid-baseline with the left lens at x = +b/2
 (ERRATA 12): u_l = F (X - b/2) / Z, u_r = F (X + b/2) / Z, v = F Y / Z, disparity F b / Z.
+
+Each equation is one kernel function, called by the camera's methods (which validate their
+arguments) and by the estimation and simulation modules (whose arrays are valid by
+construction): :func:`project_points`, :func:`points_interaction_matrix`,
+:func:`triangulate_points`, :func:`visible_points`. The kernels do not validate their
+inputs; they still raise on a depth or disparity near zero, where the equation has no value.
 """
 
 from __future__ import annotations
@@ -75,9 +81,9 @@ def _raise_disparity(d: np.ndarray, d_min: float, allow_behind: bool) -> None:
 def _points(P: object, name: str, width: int = 3) -> np.ndarray:
     """Validate an (n, width) array (a single (width,) row is promoted to (1, width))."""
     arr = as_array(P, name)
-    if arr.ndim == 1 and arr.shape == (width,):
+    if arr.shape == (width,):
         arr = arr[None, :]
-    return as_array(arr, name, (None, width))
+    return as_array(arr, name, (None, width), finite=False)  # finiteness checked above
 
 
 @dataclass(frozen=True, eq=False)
@@ -182,24 +188,8 @@ class _Sensor:
             PointBehindCameraError: Z_C <= 0 (unless allow_behind, the virtual points of ERRATA 13),
                 and always |Z_C| < MIN_ABS_DEPTH.
         """
-        return self._project(_points(P_C, "P_C"), allow_behind)
-
-    def _project(self, P_C: np.ndarray, allow_behind: bool) -> np.ndarray:
-        return self._project_flat(P_C, allow_behind).reshape(P_C.shape[0], len(self._lens_x) + 1)
-
-    def _project_flat(self, P_C: np.ndarray, allow_behind: bool) -> np.ndarray:
-        """`_project` as one point-major vector ((k + 1) n,), e.g. the stereo features of Eq. (24)."""
-        # Per-point scalar loops here and below: ~5x faster than array code for 3 markers (hot path);
-        # flat lists convert to arrays faster than nested ones.
-        F, lens_x, out = self.focal_length, self._lens_x, []
-        for X, Y, Z in P_C.tolist():
-            if (abs(Z) if allow_behind else Z) < MIN_ABS_DEPTH:
-                _check_depth(P_C[:, 2], allow_behind)
-            Fiz = F / Z
-            for x0 in lens_x:
-                out.append((X - x0) * Fiz)
-            out.append(Y * Fiz)
-        return np.array(out, dtype=float)
+        P_C = _points(P_C, "P_C")
+        return project_points(self, P_C, allow_behind).reshape(P_C.shape[0], len(self._lens_x) + 1)
 
     def interaction_matrix(self, P_C: object, allow_behind: bool = False) -> np.ndarray:
         """d(features)/d[v; w] ((k+1) n, 6), point-major, for static points seen from a moving camera.
@@ -210,61 +200,16 @@ class _Sensor:
         (Chaumette & Hutchinson 2006); for the stereo pair the lens offsets of ERRATA 12 stay in u.
         Depth rules as `project`.
         """
-        return self._interaction(_points(P_C, "P_C"), allow_behind)
-
-    def _interaction(self, P_C: np.ndarray, allow_behind: bool) -> np.ndarray:
-        F, lens_x, out = self.focal_length, self._lens_x, []
-        for X, Y, Z in P_C.tolist():
-            if (abs(Z) if allow_behind else Z) < MIN_ABS_DEPTH:
-                _check_depth(P_C[:, 2], allow_behind)
-            iz = 1.0 / Z
-            Fiz = F * iz
-            for x0 in lens_x:
-                u = (X - x0) * Fiz
-                out += (-Fiz, 0.0, u * iz, u * Y * iz, -F - u * X * iz, Fiz * Y)
-            v = Y * Fiz
-            out += (0.0, -Fiz, v * iz, F + v * Y * iz, -v * X * iz, -Fiz * X)
-        return np.array(out, dtype=float).reshape(P_C.shape[0] * (len(lens_x) + 1), 6)
+        return points_interaction_matrix(self, _points(P_C, "P_C"), allow_behind)
 
     def visibility(self, P_C: object) -> Visibility:
         """Visibility of points (n, 3) [m]: in front, inside every lens's sensor extent, in depth_range."""
-        X, Y, Z = _points(P_C, "P_C").T
-        front = Z >= MIN_ABS_DEPTH
-        Fiz = np.where(front, self.focal_length / np.where(front, Z, 1.0), 0.0)
-        fov = front.copy()
-        v_px = Y * Fiz / self.pixel_pitch + self.principal_point[1]
-        for x0 in () if self.unbounded_view else self._lens_x:
-            u_px = self._u_to_px((X - x0) * Fiz, Y * Fiz)
-            fov &= (u_px >= 0) & (u_px <= self.sensor_width / self.pixel_pitch)
-        if not self.unbounded_view:
-            fov &= (v_px >= 0) & (v_px <= self.sensor_height / self.pixel_pitch)
-        flags = [a.copy() for a in (front, fov, (Z >= self.depth_range[0]) & (Z <= self.depth_range[1]), Z)]
-        for a in flags:
+        P_C = _points(P_C, "P_C")
+        flags = np.array(_visibility_flags(self, P_C), dtype=bool).reshape(-1, 3).T.copy()
+        depth = P_C[:, 2].copy()
+        for a in (flags, depth):
             a.flags.writeable = False
-        return Visibility(*flags)
-
-    def _all_visible(self, P_C: np.ndarray) -> bool:
-        """``visibility(P_C).all_visible`` for valid points (n, 3), in scalar arithmetic (hot path)."""
-        return all(self._visible_each(P_C))
-
-    def _visible_each(self, P_C: np.ndarray) -> list[bool]:
-        """``visibility(P_C).visible`` for valid points (n, 3), as a list, in scalar arithmetic (hot path)."""
-        F, pitch, skew = self.focal_length, self.pixel_pitch, self.skew
-        u0, v0 = self.principal_point
-        u_max, v_max = self.sensor_width / pitch, self.sensor_height / pitch
-        z_min, z_max = self.depth_range
-        lens_x = self._lens_x
-        out = []
-        for X, Y, Z in P_C.tolist():
-            ok = Z >= MIN_ABS_DEPTH and z_min <= Z <= z_max
-            if ok and not self.unbounded_view:
-                Fiz = F / Z
-                v = Y * Fiz
-                ok = 0 <= v / pitch + v0 <= v_max and all(
-                    0 <= (X - x0) * Fiz / pitch + skew * v / F + u0 <= u_max for x0 in lens_x
-                )
-            out.append(ok)
-        return out
+        return Visibility(flags[0], flags[1], flags[2], depth)
 
     def to_pixels(self, p: object) -> np.ndarray:
         """Feature rows [m on the sensor] -> [px] through K of Eq. (6) (the stereo lenses share K)."""
@@ -330,18 +275,7 @@ class StereoCamera(_Sensor):
             InvalidDisparityError: disparity u_r - u_l <= 0 (unless allow_behind), and always when it
                 is ~0 (|F b / d| > MAX_ABS_DEPTH).
         """
-        return self._triangulate(_points(p, "p"), allow_behind)
-
-    def _triangulate(self, p: np.ndarray, allow_behind: bool) -> np.ndarray:
-        F, b, out = self.focal_length, self.baseline, []
-        d_min = F * b / MAX_ABS_DEPTH  # [m]
-        for u_l, u_r, v in p.tolist():
-            d = u_r - u_l  # disparity [m]
-            if (abs(d) if allow_behind else d) < d_min:
-                _raise_disparity(p[:, 1] - p[:, 0], d_min, allow_behind)
-            s = b / d
-            out += (0.5 * s * (u_l + u_r), s * v, F * s)  # Eq. (C6)-(C8)
-        return np.array(out, dtype=float).reshape(p.shape[0], 3)
+        return triangulate_points(self, _points(p, "p"), allow_behind)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -367,8 +301,9 @@ class PinholeCamera(_Sensor):
         conversions are not meaningful for this camera.
         """
         return cls(
-            focal_length=1.0, sensor_width=2.0, sensor_height=2.0, pixel_pitch=1.0, principal_point=(1.0, 1.0),
-            depth_range=(0.0, MAX_ABS_DEPTH), frame_rate=frame_rate, name="normalized", unbounded_view=True,
+            focal_length=1.0, sensor_width=2.0, sensor_height=2.0, pixel_pitch=1.0,
+            principal_point=(1.0, 1.0), depth_range=(0.0, MAX_ABS_DEPTH), frame_rate=frame_rate,
+            name="normalized", unbounded_view=True,
         )
 
     def back_project(self, p: object, Z: object, allow_behind: bool = False) -> np.ndarray:
@@ -382,6 +317,95 @@ class PinholeCamera(_Sensor):
         Z = np.full(p.shape[0], float(Z)) if Z.ndim == 0 else as_array(Z, "Z", (p.shape[0],))
         _check_depth(Z, allow_behind)
         return np.column_stack((p * (Z / self.focal_length)[:, None], Z))
+
+
+# ---------------------------------------------------------------------- kernels (no input checks)
+def project_points(camera: StereoCamera | PinholeCamera, P_C: np.ndarray, allow_behind: bool) -> np.ndarray:
+    """Features of points, point-major ((k + 1) n,) [m on the sensor]: Eq. (9)-(11), ERRATA 12.
+
+    [u_l1, u_r1, v1, u_l2, ...] for a stereo camera (the features of Eq. (24)), [u1, v1, ...]
+    for a pinhole camera; ``camera.project`` returns the same numbers as rows (n, k + 1).
+    Does not validate its input: ``P_C`` must be a finite float (n, 3) array [m]. Depth is
+    still checked, as in ``camera.project`` (PointBehindCameraError).
+    """
+    # Per-point scalar loops here and below: ~5x faster than array code for 3 markers (hot path);
+    # flat lists convert to arrays faster than nested ones.
+    F, lens_x, out = camera.focal_length, camera._lens_x, []
+    for X, Y, Z in P_C.tolist():
+        if (abs(Z) if allow_behind else Z) < MIN_ABS_DEPTH:
+            _check_depth(P_C[:, 2], allow_behind)
+        Fiz = F / Z
+        for x0 in lens_x:
+            out.append((X - x0) * Fiz)
+        out.append(Y * Fiz)
+    return np.array(out, dtype=float)
+
+
+def points_interaction_matrix(
+    camera: StereoCamera | PinholeCamera, P_C: np.ndarray, allow_behind: bool
+) -> np.ndarray:
+    """d(features)/d[v; w] ((k + 1) n, 6) of ``camera.interaction_matrix``, point-major.
+
+    Does not validate its input: ``P_C`` must be a finite float (n, 3) array [m]; depth is
+    checked as in :func:`project_points`.
+    """
+    F, lens_x, out = camera.focal_length, camera._lens_x, []
+    for X, Y, Z in P_C.tolist():
+        if (abs(Z) if allow_behind else Z) < MIN_ABS_DEPTH:
+            _check_depth(P_C[:, 2], allow_behind)
+        iz = 1.0 / Z
+        Fiz = F * iz
+        for x0 in lens_x:
+            u = (X - x0) * Fiz
+            out += (-Fiz, 0.0, u * iz, u * Y * iz, -F - u * X * iz, Fiz * Y)
+        v = Y * Fiz
+        out += (0.0, -Fiz, v * iz, F + v * Y * iz, -v * X * iz, -Fiz * X)
+    return np.array(out, dtype=float).reshape(P_C.shape[0] * (len(lens_x) + 1), 6)
+
+
+def triangulate_points(camera: StereoCamera, p: np.ndarray, allow_behind: bool) -> np.ndarray:
+    """Points (n, 3) [m] from stereo features (n, 3) [u_l, u_r, v] [m]: Eq. (C6)-(C8).
+
+    ``camera.triangulate`` without the argument check: ``p`` must be a finite float (n, 3)
+    array. The disparity is still checked (InvalidDisparityError, as ``camera.triangulate``).
+    """
+    F, b, out = camera.focal_length, camera.baseline, []
+    d_min = F * b / MAX_ABS_DEPTH  # [m]
+    for u_l, u_r, v in p.tolist():
+        d = u_r - u_l  # disparity [m]
+        if (abs(d) if allow_behind else d) < d_min:
+            _raise_disparity(p[:, 1] - p[:, 0], d_min, allow_behind)
+        s = b / d
+        out += (0.5 * s * (u_l + u_r), s * v, F * s)  # Eq. (C6)-(C8)
+    return np.array(out, dtype=float).reshape(p.shape[0], 3)
+
+
+def visible_points(camera: StereoCamera | PinholeCamera, P_C: np.ndarray) -> list[bool]:
+    """Per point, in front, in view of every lens and within depth_range: ``camera.visibility(P_C).visible``.
+
+    Does not validate its input: ``P_C`` must be a float (n, 3) array [m].
+    """
+    return [in_fov and in_range for _, in_fov, in_range in _visibility_flags(camera, P_C)]
+
+
+def _visibility_flags(camera: StereoCamera | PinholeCamera, P_C: np.ndarray) -> list[tuple[bool, bool, bool]]:
+    """(in front, in front and inside every lens's sensor extent, in depth_range) of each point (n, 3)."""
+    F, pitch, skew = camera.focal_length, camera.pixel_pitch, camera.skew
+    u0, v0 = camera.principal_point
+    u_max, v_max = camera.sensor_width / pitch, camera.sensor_height / pitch
+    z_min, z_max = camera.depth_range
+    lens_x, bounded = camera._lens_x, not camera.unbounded_view
+    out = []
+    for X, Y, Z in P_C.tolist():
+        in_front = in_fov = Z >= MIN_ABS_DEPTH
+        if in_front and bounded:
+            Fiz = F / Z
+            v = Y * Fiz
+            in_fov = 0 <= v / pitch + v0 <= v_max and all(
+                0 <= (X - x0) * Fiz / pitch + skew * v / F + u0 <= u_max for x0 in lens_x
+            )
+        out.append((in_front, in_fov, z_min <= Z <= z_max))
+    return out
 
 
 def default_camera(**overrides: object) -> StereoCamera:

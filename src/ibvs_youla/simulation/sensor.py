@@ -21,7 +21,7 @@ from .._validation import as_pose
 from ..controllers.base import CameraFrame
 from ..estimation.stereo_pose import check_marker_geometry
 from ..exceptions import InvalidParameterError
-from ..model.camera import PinholeCamera, StereoCamera
+from ..model.camera import PinholeCamera, StereoCamera, project_points, visible_points
 
 __all__ = ["MarkerSensor"]
 
@@ -75,7 +75,7 @@ class MarkerSensor:
     def features_at(self, T_O_C: Any) -> np.ndarray:
         """Features (m,) seen from a camera pose T_O_C (4, 4), validated (e.g. the target's)."""
         P_C = self.points_in_camera(as_pose(T_O_C, "T_O_C"))
-        return self.camera._project_flat(P_C, self.virtual_points)
+        return project_points(self.camera, P_C, self.virtual_points)
 
     def measure(self, T_O_C: np.ndarray, t: float) -> CameraFrame:
         """One frame from the true camera pose T_O_C (4, 4), as produced by a plant (unchecked).
@@ -84,5 +84,5 @@ class MarkerSensor:
             PointBehindCameraError: a marker at Z_C <= 0 (at |Z_C| ~ 0 with virtual points).
         """
         P_C = self.points_in_camera(T_O_C)
-        features = self.camera._project_flat(P_C, self.virtual_points)
-        return CameraFrame(t, features, np.array(self.camera._visible_each(P_C)))
+        features = project_points(self.camera, P_C, self.virtual_points)
+        return CameraFrame(t, features, np.array(visible_points(self.camera, P_C)))

@@ -25,7 +25,7 @@ from ..model.camera import (
     project_points,
     triangulate_points,
 )
-from .stereo_pose import _kabsch_centred, check_marker_geometry
+from .stereo_pose import check_marker_geometry, kabsch_centred
 
 if TYPE_CHECKING:
     from ..model.arm import Arm
@@ -144,7 +144,7 @@ class EyeInHand:
     def _estimate_camera_pose(self, p_image: np.ndarray) -> np.ndarray:
         """`estimate_camera_pose` with ``p_image`` a finite float (3n,) or (n, 3) array (unchecked)."""
         p = p_image.reshape(p_image.size // 3, 3)
-        return _kabsch_centred(triangulate_points(self.camera, p, self.virtual_points), self._markers_centred,
+        return kabsch_centred(triangulate_points(self.camera, p, self.virtual_points), self._markers_centred,
                                self._markers_mean)
 
     def estimate_q(self, p_image: np.ndarray, q_near: np.ndarray) -> np.ndarray:

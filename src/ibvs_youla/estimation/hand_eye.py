@@ -15,7 +15,7 @@ from .._geometry import inverse_pose, make_pose, transform_points
 from .._validation import as_array, as_pose, non_negative
 from ..exceptions import CalibrationError, InvalidParameterError
 from ..model.camera import StereoCamera, project_points, triangulate_points
-from .stereo_pose import _kabsch, check_marker_geometry, marker_coordinates
+from .stereo_pose import check_marker_geometry, kabsch, marker_coordinates
 
 __all__ = ["AXIS_TOL", "calibrate_hand_eye", "simulate_hand_eye_run"]
 
@@ -121,7 +121,7 @@ def simulate_hand_eye_run(
         p = project_points(camera, P_C, False).reshape(-1, 3)
         if pixel_noise > 0:
             p = camera.from_pixels(camera.to_pixels(p) + rng.normal(0.0, pixel_noise, p.shape))
-        T_C_M.append(_kabsch(P_M, triangulate_points(camera, p, False)))
+        T_C_M.append(kabsch(P_M, triangulate_points(camera, p, False)))
         T_O_E.append(arm.flange_pose(q))
         if len(T_O_E) == n_poses:
             break

@@ -67,19 +67,26 @@ def check_marker_geometry(P: object, name: str = "P", weights: np.ndarray | None
     return P
 
 
-def _kabsch(P_from: np.ndarray, P_to: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
-    """Unvalidated core of `rigid_transform_from_points` (hot path); w sums to 1 or is None."""
+def kabsch(P_from: np.ndarray, P_to: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
+    """T_to_from (4, 4) with P_to ≈ R P_from + t: Eq. (C10)-(C17), see `rigid_transform_from_points`.
+
+    Does not validate its input: ``P_from`` and ``P_to`` must be finite float (n, 3) arrays that
+    fix a pose (`check_marker_geometry`), ``w`` None or non-negative weights (n,) summing to 1.
+    """
     if w is None:
         n = P_from.shape[0]
         c_to = np.add.reduce(P_to, axis=0) / n  # Eq. (C11), the mean
-        return _kabsch_centred(P_from, P_to - c_to, c_to)
+        return kabsch_centred(P_from, P_to - c_to, c_to)
     c_from, c_to = w @ P_from, w @ P_to
     H = (P_from - c_from).T @ ((P_to - c_to) * w[:, None])
     return _fit(H, c_from, c_to)
 
 
-def _kabsch_centred(P_from: np.ndarray, Q_to: np.ndarray, c_to: np.ndarray) -> np.ndarray:
-    """`_kabsch` (unweighted) with the target points given centred, Q_to = P_to - c_to (fixed markers)."""
+def kabsch_centred(P_from: np.ndarray, Q_to: np.ndarray, c_to: np.ndarray) -> np.ndarray:
+    """`kabsch` (unweighted) with the target points given centred, Q_to = P_to - c_to (fixed markers).
+
+    Does not validate its input: as `kabsch`, with ``c_to`` (3,) the mean of the target points.
+    """
     n = P_from.shape[0]
     c_from = _ones(n).dot(P_from) / n  # Eq. (C10), the mean (a product: cheaper than a reduction)
     H = (P_from - c_from).T.dot(Q_to)  # Eq. (C12)-(C14): sum_i P'_from,i P'_to,i^T
@@ -138,7 +145,7 @@ def rigid_transform_from_points(P_from: object, P_to: object, weights: object = 
             raise InvalidArrayError("weights", f"{w.tolist()}", "non-negative weights, not all zero")
     check_marker_geometry(P_from, "P_from", w)
     check_marker_geometry(P_to, "P_to", w)
-    return _kabsch(P_from, P_to, None if w is None else w / w.sum())
+    return kabsch(P_from, P_to, None if w is None else w / w.sum())
 
 
 def marker_frame(P: object, toward: object = None) -> np.ndarray:
@@ -201,5 +208,5 @@ def estimate_pose(
             "p_image", f"an array of shape {p.shape}",
             f"shape ({n}, 3) or ({3 * n},): [u_l, u_r, v] for each of the {n} points of P_ref")
     P_C = triangulate_points(camera, p.reshape(n, 3), allow_behind)
-    return _kabsch(P_C, P_ref)
+    return kabsch(P_C, P_ref)
 

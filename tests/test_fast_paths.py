@@ -20,13 +20,11 @@ from ibvs_youla.control.outer import OuterLoopDesign, SingularValuePolicy
 from ibvs_youla.estimation.eye_in_hand import EyeInHand
 from ibvs_youla.estimation.stereo_pose import rigid_transform_from_points
 from ibvs_youla.exceptions import SimulationDivergedError, UnreachablePoseError
+from ibvs_youla.model._ik_closed_form import SINGULAR_TOL, wrap_angles
 from ibvs_youla.model.arm import Arm
 from ibvs_youla.model.camera import MIN_ABS_DEPTH, PinholeCamera, StereoCamera, project_points, visible_points
 from ibvs_youla.model.ik import (
-    _SINGULAR,
-    _TWO_PI,
     SphericalWristParameters,
-    _wrap,
     closed_form_branches,
     nearest_branch,
     select_branches,
@@ -55,7 +53,7 @@ def projected(T):
 def reference_wrist(R36, q4_ref):
     """Wrist angles as first written, on the 3x3 matrix R36 (two-argument arctangents, ERRATA 5)."""
     m = math.hypot(R36[0, 2], R36[1, 2])
-    if m < _SINGULAR:
+    if m < SINGULAR_TOL:
         if R36[2, 2] > 0.0:
             return [(q4_ref, 0.0, math.atan2(R36[1, 0], R36[0, 0]) - q4_ref)]
         return [(q4_ref, math.pi, q4_ref - math.atan2(-R36[1, 0], -R36[0, 0]))]
@@ -93,7 +91,7 @@ def reference_branches(p, T_O_E, q_ref):
             R_O_3 = np.array([[sp * c1, s1, cp * c1], [sp * s1, -c1, cp * s1], [cp, 0.0, -sp]])
             for q4, q5, q6 in reference_wrist(R_O_3.T @ R, float(q_ref[3])):
                 rows.append((q1, q2, q3, q4, q5, q6))
-    return _wrap(np.array(rows, dtype=float).reshape(-1, 6))
+    return wrap_angles(np.array(rows, dtype=float).reshape(-1, 6))
 
 
 def reference_select(branches, q_min, q_max, q_near, tol=1e-9, duplicate=1e-6):
@@ -101,8 +99,8 @@ def reference_select(branches, q_min, q_max, q_near, tol=1e-9, duplicate=1e-6):
     if branches.shape[0] == 0:
         return branches
     anchor = np.clip(q_near, q_min, q_max)
-    base = anchor + _wrap(branches - anchor)
-    cand = base[..., None] + _TWO_PI * np.arange(-2, 3)
+    base = anchor + wrap_angles(branches - anchor)
+    cand = base[..., None] + math.tau * np.arange(-2, 3)
     inside = (cand >= (q_min - tol)[:, None]) & (cand <= (q_max + tol)[:, None])
     dist = np.where(inside, np.abs(cand - q_near[:, None]), np.inf)
     pick = np.argmin(dist, axis=-1)
@@ -111,7 +109,7 @@ def reference_select(branches, q_min, q_max, q_near, tol=1e-9, duplicate=1e-6):
     q = q[np.argsort(np.linalg.norm(q - q_near, axis=1), kind="stable")]
     keep = []
     for row in q:
-        if all(np.abs(_wrap(row - k)).max() > duplicate for k in keep):
+        if all(np.abs(wrap_angles(row - k)).max() > duplicate for k in keep):
             keep.append(row)
     return np.array(keep).reshape(-1, 6)
 

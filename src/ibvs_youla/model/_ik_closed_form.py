@@ -2,7 +2,9 @@
 
 Shared by :func:`~ibvs_youla.model.ik.closed_form_branches`, which builds every branch,
 and :func:`~ibvs_youla.model.ik.nearest_branch`, which solves them nearest-first. The
-lowest of the IK modules: it imports none of them.
+lowest of the IK modules: it imports none of them. The steps (:func:`shoulder_solutions`,
+:func:`elbow_solutions`, :func:`wrist_solutions`) are kernels: they do not validate their
+inputs (a rigid flange pose as nested lists, angles in radians).
 """
 
 from __future__ import annotations
@@ -16,8 +18,17 @@ import pinocchio as pin
 
 from ..exceptions import InvalidParameterError
 
-_SINGULAR = 1e-10  # |sin q5| [-] and wrist-centre distance to axis 1 [m] treated as exactly singular
-_TWO_PI = 2.0 * math.pi
+__all__ = [
+    "SINGULAR_TOL",
+    "SphericalWristParameters",
+    "elbow_solutions",
+    "shoulder_solutions",
+    "wrap_angle",
+    "wrap_angles",
+    "wrist_solutions",
+]
+
+SINGULAR_TOL = 1e-10  # |sin q5| [-] and wrist-centre distance to axis 1 [m] treated as exactly singular
 _ALPHA = (-0.5 * math.pi, 0.0, -0.5 * math.pi, 0.5 * math.pi, -0.5 * math.pi, 0.0)  # [rad]
 _THETA_OFFSET = (0.0, -0.5 * math.pi, 0.0, 0.0, 0.0, 0.0)  # [rad]
 
@@ -117,7 +128,7 @@ class SphericalWristParameters:
         return cand
 
 
-def _wrist_angles(
+def wrist_solutions(
     r00: float, r02: float, r10: float, r12: float, r20: float, r21: float, r22: float, q4_ref: float
 ) -> list[tuple[float, float, float]]:
     """(q4, q5, q6) with Rz(q4) Ry(-q5) Rz(q6) = R36, from the seven entries of R36 it needs.
@@ -125,7 +136,7 @@ def _wrist_angles(
     Two flips, or one choice when singular (:mod:`ibvs_youla.model.ik` docstring).
     """
     m = math.hypot(r02, r12)  # |sin q5|
-    if m < _SINGULAR:
+    if m < SINGULAR_TOL:
         if r22 > 0.0:  # q5 = 0: R36 = Rz(q4 + q6)
             return [(q4_ref, 0.0, math.atan2(r10, r00) - q4_ref)]
         # q5 = pi: R36 = Rz(q4 - q6) diag(-1, 1, -1)
@@ -136,34 +147,34 @@ def _wrist_angles(
     ]
 
 
-def _wrap(angles: np.ndarray) -> np.ndarray:
+def wrap_angles(angles: np.ndarray) -> np.ndarray:
     """Map angles to (-pi, pi]."""
-    return math.pi - np.mod(math.pi - angles, _TWO_PI)
+    return math.pi - np.mod(math.pi - angles, math.tau)
 
 
-def _wrap1(x: float) -> float:
-    """Map one angle to (-pi, pi], as :func:`_wrap` computes it (same float result)."""
-    return math.pi - (math.pi - x) % _TWO_PI
+def wrap_angle(x: float) -> float:
+    """Map one angle to (-pi, pi], as :func:`wrap_angles` computes it (same float result)."""
+    return math.pi - (math.pi - x) % math.tau
 
 
-def _shoulders(
+def shoulder_solutions(
     p: SphericalWristParameters, T_O_E: list[list[float]], q1_ref: float
 ) -> tuple[tuple[float, float, float], tuple[float, float]]:
     """Wrist centre (x, y, z) [m] and the two shoulder angles q1 (front, back) of a flange pose."""
     (_, _, r02, px), (_, _, r12, py), (_, _, r22, pz) = T_O_E[0], T_O_E[1], T_O_E[2]
     x, y, z = px - p.d6 * r02, py - p.d6 * r12, pz - p.d6 * r22  # wrist centre [m]
-    if math.hypot(x, y) < _SINGULAR:
+    if math.hypot(x, y) < SINGULAR_TOL:
         return (x, y, z), (q1_ref, q1_ref + math.pi)
     front = math.atan2(y, x)
     return (x, y, z), (front, front - math.pi if front > 0.0 else front + math.pi)
 
 
-def _elbows(
+def elbow_solutions(
     p: SphericalWristParameters, T_O_E: list[list[float]], centre: tuple[float, float, float], q1: float
 ) -> list[tuple[float, float, tuple[float, ...]]]:
     """(q2, q3, R36) of each elbow solution for shoulder angle q1 (none if out of reach).
 
-    R36 = R_O_3^T R_O_E as the seven entries `_wrist_angles` reads (r00, r02, r10, r12, r20,
+    R36 = R_O_3^T R_O_E as the seven entries `wrist_solutions` reads (r00, r02, r10, r12, r20,
     r21, r22). Angles unwrapped.
     """
     (r00, r01, r02, _), (r10, r11, r12, _), (r20, r21, r22, _) = T_O_E[0], T_O_E[1], T_O_E[2]

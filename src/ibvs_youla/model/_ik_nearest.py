@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from ._ik_closed_form import _TWO_PI, _elbows, _shoulders, _wrap1, _wrist_angles
+from ._ik_closed_form import elbow_solutions, shoulder_solutions, wrap_angle, wrist_solutions
 
 if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
@@ -44,19 +44,19 @@ def nearest_branch(
         for lo, hi, qn in zip(q_min, q_max, q_near, strict=True)
     ]
     M = T_O_E.tolist()
-    centre, shoulders = _shoulders(params, M, q_near[0])
-    order = (0, 1) if abs(_wrap1(shoulders[0] - q_near[0])) <= 0.5 * math.pi else (1, 0)
+    centre, shoulders = shoulder_solutions(params, M, q_near[0])
+    order = (0, 1) if abs(wrap_angle(shoulders[0] - q_near[0])) <= 0.5 * math.pi else (1, 0)
     best, best_key = None, (math.inf, 0, 0, 0)
     q4_ref = q_near[3]
     for i in order:  # the shoulder nearer q_near first: the other one is then given up early
         q_1 = _nearest_equivalents((shoulders[i],), bounds[:1], 0.0, best_key[0])
         if q_1 is None:
             continue
-        for j, (q2, q3, R36) in enumerate(_elbows(params, M, centre, shoulders[i])):
+        for j, (q2, q3, R36) in enumerate(elbow_solutions(params, M, centre, shoulders[i])):
             q_23 = _nearest_equivalents((q2, q3), bounds[1:3], q_1[1], best_key[0])
             if q_23 is None:
                 continue
-            for k, wrist in enumerate(_wrist_angles(*R36, q4_ref)):
+            for k, wrist in enumerate(wrist_solutions(*R36, q4_ref)):
                 q_456 = _nearest_equivalents(wrist, bounds[3:], q_23[2], best_key[0])
                 if q_456 is not None and (q_456[3], i, j, k) < best_key:
                     best, best_key = [q_1[0], q_23[0], q_23[1], *q_456[:3]], (q_456[3], i, j, k)
@@ -72,10 +72,10 @@ def _nearest_equivalents(
     clipped to [lo, hi]. Returns [q_1, ..., q_k, d2 + sum (q_i - q_near_i)^2], or None when
     an angle has no equivalent within limits or the squared distance exceeds ``give_up``.
     """
-    pi, two_pi = math.pi, _TWO_PI
+    pi, two_pi = math.pi, math.tau
     out = []
     for v, (lo, hi, lo_t, hi_t, anchor, qn) in zip(angles, bounds, strict=False):  # bounds may be longer
-        base = anchor + (pi - (pi - ((pi - (pi - v) % two_pi) - anchor)) % two_pi)  # _wrap1 twice
+        base = anchor + (pi - (pi - ((pi - (pi - v) % two_pi) - anchor)) % two_pi)  # wrap_angle twice
         if lo_t <= base <= hi_t and -3.14 < base - qn < 3.14:
             pick = base  # every other 2*pi-equivalent is farther than pi from q_near
         else:

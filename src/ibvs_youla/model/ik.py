@@ -35,16 +35,16 @@ all are importable from here. Imports go one way: ``ik`` -> ``_ik_nearest`` ->
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from ._ik_closed_form import _SINGULAR as _SINGULAR  # re-exported: the singular-pose threshold
 from ._ik_closed_form import (
-    _TWO_PI,
     SphericalWristParameters,
-    _elbows,
-    _shoulders,
-    _wrap,
-    _wrist_angles,
+    elbow_solutions,
+    shoulder_solutions,
+    wrap_angles,
+    wrist_solutions,
 )
 from ._ik_nearest import nearest_branch
 from .ik_numerical import numerical_branches
@@ -75,14 +75,14 @@ def closed_form_branches(
     """
     q4_ref = float(q_ref[3])
     M = np.asarray(T_O_E, dtype=float).tolist()
-    centre, shoulders = _shoulders(params, M, float(q_ref[0]))
+    centre, shoulders = shoulder_solutions(params, M, float(q_ref[0]))
     rows = [
         (q1, q2, q3, *wrist)
         for q1 in shoulders
-        for q2, q3, R36 in _elbows(params, M, centre, q1)
-        for wrist in _wrist_angles(*R36, q4_ref)
+        for q2, q3, R36 in elbow_solutions(params, M, centre, q1)
+        for wrist in wrist_solutions(*R36, q4_ref)
     ]
-    return _wrap(np.array(rows, dtype=float).reshape(-1, 6))
+    return wrap_angles(np.array(rows, dtype=float).reshape(-1, 6))
 
 
 def select_branches(
@@ -105,8 +105,8 @@ def select_branches(
     if branches.shape[0] == 0:
         return branches
     anchor = np.clip(q_near, q_min, q_max)
-    base = anchor + _wrap(branches - anchor)  # (k, 6), nearest equivalent to the anchor
-    cand = base[..., None] + _TWO_PI * np.arange(-2, 3)  # (k, 6, 5)
+    base = anchor + wrap_angles(branches - anchor)  # (k, 6), nearest equivalent to the anchor
+    cand = base[..., None] + math.tau * np.arange(-2, 3)  # (k, 6, 5)
     inside = (cand >= (q_min - tol)[:, None]) & (cand <= (q_max + tol)[:, None])
     dist = np.where(inside, np.abs(cand - q_near[:, None]), np.inf).reshape(-1, 5)
     pick = np.argmin(dist, axis=-1)  # first nearest equivalent of each joint
@@ -116,7 +116,7 @@ def select_branches(
     q = q[np.argsort(np.linalg.norm(q - q_near, axis=1), kind="stable")]
     if q.shape[0] < 2:
         return q
-    wrapped = _wrap(q[:, None, :] - q[None, :, :])  # (k, k, 6) pairwise differences modulo 2 pi
+    wrapped = wrap_angles(q[:, None, :] - q[None, :, :])  # (k, k, 6) pairwise differences modulo 2 pi
     near = (np.abs(wrapped).max(axis=-1) <= duplicate).tolist()
     keep: list[int] = []
     for i, row in enumerate(near):

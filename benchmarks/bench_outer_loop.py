@@ -100,7 +100,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
 
     arm, camera = Arm.irb4600(), StereoCamera.zed2()
     runs = {sc.name: _Frame(sc, arm, camera) for sc in scenarios.paper_scenarios()}
-    model, data, cam_id = arm.model, arm.model.createData(), arm._camera_id
+    model, data, cam_id = arm.model, arm.model.createData(), arm.model.getFrameId(arm.camera_frame)
     configs = _configurations(arm, args.configs, args.seed)
 
     # Data of each configuration, computed once with the library's checked methods.
@@ -142,9 +142,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             t.append(perf_counter())
             visible_points(camera, P_C)
             t.append(perf_counter())
-            q_hat = eye._estimate_q(p_meas, q_enc)
+            q_hat = eye.q_from_image(p_meas, q_enc)
             t.append(perf_counter())
-            J_hat = eye._jacobian(q_hat)
+            J_hat = eye.image_jacobian(q_hat)
             t.append(perf_counter())
             U, _, g, Vt = outer._policy._svd_gains(J_hat)
             t.append(perf_counter())

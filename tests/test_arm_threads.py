@@ -51,16 +51,16 @@ def test_threads_sharing_one_arm_get_the_single_threaded_results(arm, fast_threa
     dqs = rng.uniform(-1.0, 1.0, qs.shape)
     taus = rng.uniform(-100.0, 100.0, qs.shape)
     poses = np.array([arm.camera_pose(q) for q in qs])
-    jacobians = np.array([arm._camera_pose_and_jacobian(q)[1] for q in qs])
-    ddqs = np.array([arm._forward_dynamics(q, dq, tau) for q, dq, tau in zip(qs, dqs, taus, strict=True)])
+    jacobians = np.array([arm.camera_pose_and_jacobian(q)[1] for q in qs])
+    ddqs = np.array([arm.aba(q, dq, tau) for q, dq, tau in zip(qs, dqs, taus, strict=True)])
 
     def work(k: int) -> int:
         mismatches = 0
         for i in np.roll(np.arange(N_CONFIGURATIONS), k * N_CONFIGURATIONS // N_THREADS):
-            T_O_C, J_C = arm._camera_pose_and_jacobian(qs[i])
+            T_O_C, J_C = arm.camera_pose_and_jacobian(qs[i])
             mismatches += not np.array_equal(arm.camera_pose(qs[i]), poses[i])
             mismatches += not (np.array_equal(T_O_C, poses[i]) and np.array_equal(J_C, jacobians[i]))
-            mismatches += not np.array_equal(arm._forward_dynamics(qs[i], dqs[i], taus[i]), ddqs[i])
+            mismatches += not np.array_equal(arm.aba(qs[i], dqs[i], taus[i]), ddqs[i])
         return mismatches
 
     assert _run_in_threads(work, N_THREADS) == [0] * N_THREADS
@@ -90,7 +90,7 @@ def test_a_copied_arm_behaves_identically(arm, clone):
         np.testing.assert_array_equal(twin.mass_matrix(q), arm.mass_matrix(q))
         T_O_C = arm.camera_pose(q)
         np.testing.assert_array_equal(twin.ik(T_O_C, q_near=q), arm.ik(T_O_C, q_near=q))
-        np.testing.assert_array_equal(twin._ik_nearest(T_O_C, q), arm._ik_nearest(T_O_C, q))
+        np.testing.assert_array_equal(twin.ik_nearest(T_O_C, q), arm.ik_nearest(T_O_C, q))
     for name in ("q_min", "q_max", "dq_max", "tau_max", "armature", "damping", "T_E_C"):
         np.testing.assert_array_equal(getattr(twin, name), getattr(arm, name))
         assert not getattr(twin, name).flags.writeable, name

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from ibvs_youla import scenarios
@@ -164,7 +165,7 @@ def test_ik_nearest_equals_ik_first_row(arm):
     for i, q in enumerate(random_q(arm, rng, 1000)):
         T_O_C = projected(arm.camera_pose(q))
         q_near = q + rng.normal(0.0, (0.01, 0.3, 2.0)[i % 3], 6)
-        np.testing.assert_allclose(arm._ik_nearest(T_O_C, q_near), arm.ik(T_O_C, q_near=q_near)[0],
+        np.testing.assert_allclose(arm.ik_nearest(T_O_C, q_near), arm.ik(T_O_C, q_near=q_near)[0],
                                    rtol=0, atol=1e-12)
 
 
@@ -172,12 +173,12 @@ def test_ik_nearest_at_singular_and_unreachable_poses(arm):
     for q in (np.zeros(6), np.radians([30.0, 10.0, -20.0, 50.0, 0.0, -70.0])):  # wrist singular (q5 = 0)
         T_O_C = projected(arm.camera_pose(q))
         for q_near in (q, q + 0.2):
-            np.testing.assert_allclose(arm._ik_nearest(T_O_C, q_near), arm.ik(T_O_C, q_near=q_near)[0],
+            np.testing.assert_allclose(arm.ik_nearest(T_O_C, q_near), arm.ik(T_O_C, q_near=q_near)[0],
                                        rtol=0, atol=1e-12)
     far = arm.camera_pose(np.zeros(6))
     far[:3, 3] = [5.0, 0.0, 1.0]  # out of reach
     with pytest.raises(UnreachablePoseError):
-        arm._ik_nearest(far, np.zeros(6))
+        arm.ik_nearest(far, np.zeros(6))
 
 
 def test_ik_nearest_of_a_numerical_ik_arm_delegates_to_ik():
@@ -187,7 +188,7 @@ def test_ik_nearest_of_a_numerical_ik_arm_delegates_to_ik():
     assert ur5.ik_parameters is None
     q = np.array([0.3, -1.0, 1.2, -0.5, 0.8, 0.2])
     T = ur5.camera_pose(q)
-    np.testing.assert_allclose(ur5._ik_nearest(T, q), ur5.ik(T, q_near=q)[0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(ur5.ik_nearest(T, q), ur5.ik(T, q_near=q)[0], rtol=0, atol=1e-12)
 
 
 def test_spherical_wrist_parameters_unchanged():
@@ -298,34 +299,49 @@ def test_stereo_pose_fast_path_equals_literal_kabsch(arm, camera):
     assert 0 < flips < 200
 
 
-def test_eye_in_hand_twins_equal_the_checked_methods(arm, camera):
+def pinocchio_camera_jacobian(arm, q):
+    """J_C (6, 6), LOCAL, straight from Pinocchio's frame Jacobian (not the arm's one-pass kernel)."""
+    frame = arm.model.getFrameId(arm.camera_frame)
+    return pin.computeFrameJacobian(arm.model, arm.model.createData(), q, frame, pin.LOCAL)
+
+
+def test_eye_in_hand_kernels_equal_the_literal_equations(arm, camera):
+    """J = L(P_C) J_C(q) (Eq. 51) and q~ = IK(Kabsch(triangulated features)) (Eq. 62), written out here."""
     rng = np.random.default_rng(SEED + 7)
     for sc in scenarios.paper_scenarios():
         eye = EyeInHand(arm, camera, sc.markers_O, virtual_points=True)
         for _ in range(100):
             q = sc.q_start + rng.normal(0.0, 0.2, 6)
-            J = eye.jacobian(q)
-            np.testing.assert_allclose(eye._jacobian(q), J, rtol=0, atol=1e-14 * np.abs(J).max())
+            T_O_C = arm.camera_pose(q)
+            P_C = (sc.markers_O - T_O_C[:3, 3]) @ T_O_C[:3, :3]  # R^T (P_O - t), Eq. (21)-(22)
+            J = camera.interaction_matrix(P_C, allow_behind=True) @ pinocchio_camera_jacobian(arm, q)
+            np.testing.assert_allclose(eye.image_jacobian(q), J, rtol=0, atol=1e-14 * np.abs(J).max())
+            np.testing.assert_allclose(eye.jacobian(q), J, rtol=0, atol=1e-14 * np.abs(J).max())
             p = eye.features(q)
             q_near = q + rng.normal(0.0, 0.01, 6)
-            reference = arm.ik(eye.estimate_camera_pose(p), q_near=q_near)[0]
-            np.testing.assert_allclose(eye._estimate_q(p, q_near), reference, rtol=0, atol=1e-9)
+            P_C_seen = camera.triangulate(p.reshape(3, 3), allow_behind=True)
+            reference = arm.ik(literal_kabsch(P_C_seen, eye.markers_O), q_near=q_near)[0]
+            np.testing.assert_allclose(eye.q_from_image(p, q_near), reference, rtol=0, atol=1e-9)
             np.testing.assert_allclose(eye.estimate_q(p, q_near), reference, rtol=0, atol=1e-9)
 
 
-def test_arm_twins_equal_the_checked_methods(arm):
+def test_arm_kernels_equal_the_literal_equations(arm):
+    """Eq. (30) both ways against M(q) and h(q, dq); the one-pass pose and Jacobian against Pinocchio's."""
     rng = np.random.default_rng(SEED + 8)
     for q in random_q(arm, rng, 50):
         dq, v = rng.normal(0, 2, 6), rng.normal(0, 10, 6)
-        tau = arm.inverse_dynamics(q, dq, v)
-        np.testing.assert_array_equal(arm._forward_dynamics(q, dq, tau), arm.forward_dynamics(q, dq, tau))
-        np.testing.assert_array_equal(arm._inverse_dynamics(q, dq, v), tau)
+        M, h = arm.mass_matrix(q), arm.nonlinear_effects(q, dq)
+        tau = arm.rnea(q, dq, v)
         scale = np.abs(tau).max()
-        M_v_plus_h = arm.mass_matrix(q) @ v + arm.nonlinear_effects(q, dq)
-        np.testing.assert_allclose(arm._inverse_dynamics(q, dq, v), M_v_plus_h, rtol=0, atol=1e-12 * scale)
-        T, J = arm._camera_pose_and_jacobian(q)
+        np.testing.assert_allclose(tau, M @ v + h, rtol=0, atol=1e-12 * scale)
+        np.testing.assert_array_equal(arm.inverse_dynamics(q, dq, v), tau)
+        ddq = np.linalg.solve(M, tau - h)
+        np.testing.assert_allclose(arm.aba(q, dq, tau), ddq, rtol=0, atol=1e-9 * np.abs(ddq).max())
+        np.testing.assert_allclose(arm.forward_dynamics(q, dq, tau), v, rtol=0, atol=1e-9 * np.abs(v).max())
+        T, J = arm.camera_pose_and_jacobian(q)
         np.testing.assert_array_equal(T, arm.camera_pose(q))
-        np.testing.assert_allclose(J, arm.camera_jacobian(q), rtol=0, atol=1e-14)
+        np.testing.assert_allclose(J, pinocchio_camera_jacobian(arm, q), rtol=0, atol=1e-14)
+        np.testing.assert_array_equal(arm.camera_jacobian(q), J)
 
 
 # --------------------------------------------------------------------------- control
@@ -407,7 +423,7 @@ def test_packed_rk4_equals_rk4_arm_step(arm):
     for q in random_q(arm, rng, 50):
         dq, tau = rng.normal(0, 1, 6), rng.normal(0, 500, 6)
         q1, dq1 = rk4_arm_step(arm.forward_dynamics, q, dq, tau, 1e-3)
-        x1 = _rk4_arm_step_packed(arm._forward_dynamics, np.concatenate([q, dq]), tau, 1e-3, k)
+        x1 = _rk4_arm_step_packed(arm.aba, np.concatenate([q, dq]), tau, 1e-3, k)
         np.testing.assert_allclose(x1[:6], q1, rtol=0, atol=1e-15)
         np.testing.assert_allclose(x1[6:], dq1, rtol=0, atol=1e-12 * np.abs(dq1).max())
 

@@ -216,7 +216,8 @@ class YoulaController(Controller):
         p, q_enc = frame.features, reading.q  # type: ignore[union-attr]
         e = self._p_target - p
         if self.adaptive:
-            self._q_fb = self._outer._update(e, self._eye._jacobian(self._configuration_estimate(p, q_enc)))
+            J = self._eye.image_jacobian(self._configuration_estimate(p, q_enc))
+            self._q_fb = self._outer._update(e, J)
         else:
             if self._first_frame:
                 s = self.settings
@@ -232,7 +233,7 @@ class YoulaController(Controller):
             return q_enc
         use_previous = s.branch_prior == "previous" and self._q_estimate is not None
         q_near = self._q_estimate if use_previous else q_enc
-        self._q_estimate = self._eye._estimate_q(p, q_near)
+        self._q_estimate = self._eye.q_from_image(p, q_near)
         return self._q_estimate
 
     def command(self, reading: JointReading | None) -> np.ndarray:

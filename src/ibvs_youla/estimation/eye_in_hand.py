@@ -4,15 +4,15 @@ Sec. 4.4-4.5 (Eq. 21-25): P_C = T_C_O P_O, p_image = M(P_C) (Eq. 11), so p_image
 (Eq. 24). Sec. 6.3: the 9x6 Jacobian J = L(P_C) J_C(q) (Eq. 51, ERRATA 12) and the estimate
 q~ = F^-1(p_image) (Eq. 62) through stereo P3P (Sec. 3, Appendix C) and the arm's inverse kinematics.
 The public methods validate their arguments (a NaN or mis-shaped input raises InvalidArrayError,
-never a NaN result or a bare numpy error); constants are precomputed. The simulator calls the
-underscored twins (`_points_in_camera_at_pose`, `_features_at_pose`, `_estimate_camera_pose`,
-`_jacobian`, `_estimate_q`), which skip these checks and the arm's and share its kinematics passes;
-tests pin them to the plain methods.
+never a NaN result or a bare numpy error); constants are precomputed. Two of them are a check in
+front of a kernel that the servo loop's controller calls directly, at every camera frame, with
+arrays valid by construction: `EyeInHand.image_jacobian` (of `jacobian`, one kinematics pass of
+the arm for T_O_C and J_C) and `EyeInHand.q_from_image` (of `estimate_q`).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -39,8 +39,8 @@ class EyeInHand:
     Features are point-major, [u_l1, u_r1, v1, u_l2, ...] [m on the sensor] (Eq. 24).
 
     Args:
-        arm: Provides ``camera_pose(q)`` (T_O_C), ``camera_jacobian(q)`` (6x6 LOCAL, twist [v; w]
-            in C) and ``ik(T_O_C, q_near)`` (branches sorted by distance to q_near).
+        arm: The arm: ``camera_pose(q)`` (T_O_C), ``camera_pose_and_jacobian(q)`` (with J_C, 6x6
+            LOCAL, twist [v; w] in C) and ``ik_nearest(T_O_C, q_near)`` (the IK branch nearest q_near).
         camera: The stereo camera.
         markers_O: Marker positions (n, 3), n >= 3 (the paper uses 3), in the base frame [m].
         virtual_points: Let markers lie behind the camera (negative depth and disparity), as the
@@ -51,7 +51,7 @@ class EyeInHand:
         DegenerateMarkersError: coincident or collinear markers (they would not fix the pose, Sec. 3).
     """
 
-    def __init__(self, arm: Arm | Any, camera: StereoCamera, markers_O: object, virtual_points: bool = False):
+    def __init__(self, arm: Arm, camera: StereoCamera, markers_O: object, virtual_points: bool = False):
         if not isinstance(camera, StereoCamera):
             raise InvalidParameterError("camera", type(camera).__name__, "a StereoCamera")
         self.arm = arm
@@ -73,16 +73,15 @@ class EyeInHand:
         Raises:
             InvalidArrayError: ``T_O_C`` is not a finite 4x4 rigid transform.
         """
-        return self._points_in_camera_at_pose(as_pose(T_O_C, "T_O_C"))
-
-    def _points_in_camera_at_pose(self, T_O_C: np.ndarray) -> np.ndarray:
-        """`points_in_camera_at_pose` with ``T_O_C`` a float 4x4 rigid transform (unchecked)."""
-        R = T_O_C[:3, :3]
-        return (self.markers_O - T_O_C[:3, 3]).dot(R)  # rows R^T (P_O - t)
+        return self._points_in_camera(as_pose(T_O_C, "T_O_C"))
 
     def points_in_camera(self, q: np.ndarray) -> np.ndarray:
         """Markers in the camera frame at joint angles q (6,) [rad], (n, 3) [m]."""
-        return self._points_in_camera_at_pose(self.arm.camera_pose(q))
+        return self._points_in_camera(self.arm.camera_pose(q))
+
+    def _points_in_camera(self, T_O_C: np.ndarray) -> np.ndarray:
+        R = T_O_C[:3, :3]
+        return (self.markers_O - T_O_C[:3, 3]).dot(R)  # rows R^T (P_O - t)
 
     def features_at_pose(self, T_O_C: np.ndarray) -> np.ndarray:
         """Stereo features (3n,) [m] of the markers seen from camera pose T_O_C (Eq. 11, 21).
@@ -91,29 +90,30 @@ class EyeInHand:
             InvalidArrayError: ``T_O_C`` is not a finite 4x4 rigid transform.
             PointBehindCameraError: a marker has Z_C <= 0 (only |Z_C| ~ 0 with virtual points).
         """
-        return self._features_at_pose(as_pose(T_O_C, "T_O_C"))
-
-    def _features_at_pose(self, T_O_C: np.ndarray) -> np.ndarray:
-        """`features_at_pose` with ``T_O_C`` a float 4x4 rigid transform (unchecked)."""
-        return project_points(self.camera, self._points_in_camera_at_pose(T_O_C), self.virtual_points)
+        return project_points(self.camera, self.points_in_camera_at_pose(T_O_C), self.virtual_points)
 
     def features(self, q: np.ndarray) -> np.ndarray:
         """Eye-in-hand map F of Eq. (24): stereo features (3n,) [m] at joint angles q (6,) [rad]."""
-        return self._features_at_pose(self.arm.camera_pose(q))
+        return project_points(self.camera, self.points_in_camera(q), self.virtual_points)
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
         """Image Jacobian dF/dq (3n, 6) of Eq. (51) (9x6 for three markers, ERRATA 12).
 
         J = L(P_C) J_C(q): the stereo interaction matrix (twist [v; w] in C to feature rates) times
         the arm's LOCAL camera Jacobian (dq to that twist). Rank 5 at wrist singularities (ERRATA 7).
-        """
-        P_C = self.points_in_camera(q)
-        return points_interaction_matrix(self.camera, P_C, self.virtual_points) @ self.arm.camera_jacobian(q)
 
-    def _jacobian(self, q: np.ndarray) -> np.ndarray:
-        """`jacobian` from one kinematics pass of the arm (``Arm._camera_pose_and_jacobian``), unchecked."""
-        T_O_C, J_C = self.arm._camera_pose_and_jacobian(q)
-        P_C = self._points_in_camera_at_pose(T_O_C)
+        Raises:
+            InvalidArrayError: ``q`` is not a finite (6,) array.
+        """
+        return self.image_jacobian(as_array(q, "q", (6,)))
+
+    def image_jacobian(self, q: np.ndarray) -> np.ndarray:
+        """`jacobian` from one kinematics pass of the arm (``Arm.camera_pose_and_jacobian``).
+
+        Kernel: does not validate ``q``, which must be a finite float64 (6,) array [rad].
+        """
+        T_O_C, J_C = self.arm.camera_pose_and_jacobian(q)
+        P_C = self._points_in_camera(T_O_C)
         return points_interaction_matrix(self.camera, P_C, self.virtual_points).dot(J_C)
 
     def visibility(self, q: np.ndarray) -> Visibility:
@@ -129,7 +129,7 @@ class EyeInHand:
             InvalidArrayError: ``p_image`` is not a finite (3n,) or (n, 3) array, n the number of markers.
             InvalidDisparityError: a marker's disparity is ~0, or negative without virtual points.
         """
-        return self._estimate_camera_pose(self._check_features(p_image))
+        return self._camera_pose_from_image(self._check_features(p_image))
 
     def _check_features(self, p_image: object) -> np.ndarray:
         """``p_image`` as a finite (n, 3) float array, n the number of markers (accepts (3n,) or (n, 3))."""
@@ -141,11 +141,10 @@ class EyeInHand:
                 f"shape ({3 * n},) or ({n}, 3): [u_l, u_r, v] for each of the {n} markers")
         return p.reshape(n, 3)
 
-    def _estimate_camera_pose(self, p_image: np.ndarray) -> np.ndarray:
-        """`estimate_camera_pose` with ``p_image`` a finite float (3n,) or (n, 3) array (unchecked)."""
+    def _camera_pose_from_image(self, p_image: np.ndarray) -> np.ndarray:
         p = p_image.reshape(p_image.size // 3, 3)
         return kabsch_centred(triangulate_points(self.camera, p, self.virtual_points), self._markers_centred,
-                               self._markers_mean)
+                              self._markers_mean)
 
     def estimate_q(self, p_image: np.ndarray, q_near: np.ndarray) -> np.ndarray:
         """Joint angles q~ = F^-1(p_image) of Eq. (62) (6,) [rad]: the IK branch nearest to q_near.
@@ -156,11 +155,13 @@ class EyeInHand:
             InvalidDisparityError: see `estimate_camera_pose`.
             UnreachablePoseError: no IK branch within the joint limits reaches the estimated pose.
         """
-        return self._estimate_q(self._check_features(p_image), as_array(q_near, "q_near", (6,)))
+        return self.q_from_image(self._check_features(p_image), as_array(q_near, "q_near", (6,)))
 
-    def _estimate_q(self, p_image: np.ndarray, q_near: np.ndarray) -> np.ndarray:
-        """`estimate_q` with finite float ``p_image`` and ``q_near`` (6,) (unchecked): nearest-branch IK."""
-        T_O_C = self._estimate_camera_pose(p_image)
-        nearest = getattr(self.arm, "_ik_nearest", None)
-        return self.arm.ik(T_O_C, q_near=q_near)[0] if nearest is None else nearest(T_O_C, q_near)
+    def q_from_image(self, p_image: np.ndarray, q_near: np.ndarray) -> np.ndarray:
+        """q~ = F^-1(p_image) of Eq. (62): stereo P3P, then the IK branch nearest q_near (``Arm.ik_nearest``).
 
+        Kernel of `estimate_q`: does not validate its arguments. ``p_image`` must be a finite
+        float (3n,) or (n, 3) array [m], ``q_near`` a finite float (6,) array [rad]; the errors
+        of `estimate_q` on valid input (disparity, unreachable pose) are still raised.
+        """
+        return self.arm.ik_nearest(self._camera_pose_from_image(p_image), q_near)

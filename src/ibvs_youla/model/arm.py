@@ -10,12 +10,13 @@ The actuator terms J (armature) and B / r (viscous damping) come from Table A4 t
 Pinocchio's CRBA, RNEA and ABA include ``model.armature``; they ignore ``model.damping``,
 which is therefore left at zero and the damping torque ``damping * dq`` is added here.
 
-Hot-path methods (poses, Jacobians, dynamics) validate their inputs cheaply: a float64
-array of the right shape whose entries are finite passes straight through; anything
-else goes through :func:`ibvs_youla._validation.as_array` and raises
-:class:`~ibvs_youla.exceptions.InvalidArrayError` if it is not valid. The simulator's
-inner loop calls the underscored twins (``_camera_pose``, ``_forward_dynamics``, ...),
-which skip even that check: their callers own arrays that are valid by construction.
+Every public method validates its arguments (:func:`ibvs_youla._validation.as_array`, whose
+check of a float64 array of the right shape costs about 0.5 us) and raises
+:class:`~ibvs_youla.exceptions.InvalidArrayError` if they are not valid. Four kernels do not
+check: :meth:`Arm.camera_pose_and_jacobian`, :meth:`Arm.aba`, :meth:`Arm.rnea` and
+:meth:`Arm.ik_nearest`. They are the computations behind :meth:`Arm.camera_jacobian`,
+:meth:`Arm.forward_dynamics`, :meth:`Arm.inverse_dynamics` and :meth:`Arm.ik`, called by
+those methods and by the simulator, whose arrays are valid by construction.
 
 One :class:`Arm` may be shared by threads: each thread computes in its own Pinocchio
 ``Data``, created from :attr:`Arm.model` on the thread's first call. An arm pickles (and
@@ -49,6 +50,7 @@ from .ik import (
 __all__ = ["ActuatorParameters", "Arm"]
 
 _N = 6
+_VEC = (_N,)  # shape of a joint vector
 _IK_TOL = 1e-9  # max |FK(q) - T| accepted for an IK solution (rotation entries and metres)
 _IK_SEEDS = 24  # random seeds of the numerical IK (besides q_near)
 _READ_ONLY = ("armature", "damping", "q_min", "q_max", "dq_max", "tau_max", "T_E_C")
@@ -113,8 +115,8 @@ class Arm:
         self._camera_id = frame_id(self.model, camera_frame, source, "camera")
         self._flange_id = frame_id(self.model, flange_frame, source, "flange")
         zeros = np.zeros(_N)
-        self.armature = _read_only(zeros if armature is None else as_array(armature, "armature", (_N,)))
-        self.damping = _read_only(zeros if damping is None else as_array(damping, "damping", (_N,)))
+        self.armature = _read_only(zeros if armature is None else as_array(armature, "armature", _VEC))
+        self.damping = _read_only(zeros if damping is None else as_array(damping, "damping", _VEC))
         for label, values in (("armature", self.armature), ("damping", self.damping)):
             if np.any(values < 0):
                 raise InvalidArrayError(label, f"{values.tolist()}", "entries >= 0")
@@ -238,30 +240,26 @@ class Arm:
         ik = "closed-form" if self.ik_parameters is not None else "numerical"
         return f"Arm({self.name!r}, nq={self.nq}, ik={ik})"
 
-    # ------------------------------------------------------------------ input checks
-    def _vec(self, x: Any, name: str) -> np.ndarray:
-        """Fast path for valid float64 (6,) arrays; full validation otherwise."""
-        if type(x) is np.ndarray and x.shape == (_N,) and x.dtype == np.float64 and np.isfinite(x).all():
-            return x
-        return as_array(x, name, (_N,))
-
     # ------------------------------------------------------------------ kinematics
     def within_limits(self, q: Any, tol: float = 0.0) -> bool:
         """True if ``q_min - tol <= q <= q_max + tol`` for every joint (``tol`` [rad] >= 0)."""
-        q = self._vec(q, "q")
+        q = as_array(q, "q", _VEC)
         tol = non_negative(tol, "tol")
         return bool(np.all(q >= self.q_min - tol) and np.all(q <= self.q_max + tol))
 
     def flange_pose(self, q: Any) -> np.ndarray:
         """T_O_E (4, 4): flange pose in the base frame, Eq. (15) (the paper's T_6^0)."""
         data = self._thread_data.data
-        pin.forwardKinematics(self.model, data, self._vec(q, "q"))
+        pin.forwardKinematics(self.model, data, as_array(q, "q", _VEC))
         return pin.updateFramePlacement(self.model, data, self._flange_id).homogeneous
 
     def camera_pose(self, q: Any) -> np.ndarray:
         """T_O_C (4, 4) = T_O_E(q) T_E_C: camera pose in the base frame (Eq. 21 inverted)."""
+        return self._camera_pose(as_array(q, "q", _VEC))
+
+    def _camera_pose(self, q: np.ndarray) -> np.ndarray:
         data = self._thread_data.data
-        pin.forwardKinematics(self.model, data, self._vec(q, "q"))
+        pin.forwardKinematics(self.model, data, q)
         return pin.updateFramePlacement(self.model, data, self._camera_id).homogeneous
 
     def camera_jacobian(self, q: Any) -> np.ndarray:
@@ -270,70 +268,71 @@ class Arm:
         With the stereo interaction matrix L(P_C), ``L @ J_C`` is the 9x6 image Jacobian
         of Eq. (51). Rank 5 at the wrist singularity q5 = 0 (ERRATA 7).
         """
-        q = self._vec(q, "q")
-        return pin.computeFrameJacobian(self.model, self._thread_data.data, q, self._camera_id, pin.LOCAL)
+        return self.camera_pose_and_jacobian(as_array(q, "q", _VEC))[1]
 
-    # ------------------------------------------------------------------ unchecked hot path
-    def _camera_pose(self, q: np.ndarray) -> np.ndarray:
-        """`camera_pose` without the argument check (q a finite float64 (6,) array)."""
-        data = self._thread_data.data
-        pin.forwardKinematics(self.model, data, q)
-        return pin.updateFramePlacement(self.model, data, self._camera_id).homogeneous
+    def camera_pose_and_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(T_O_C, J_C) at q from one kinematics pass: `camera_pose` and `camera_jacobian` together.
 
-    def _camera_pose_and_jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(`camera_pose`, `camera_jacobian`) at q from one kinematics pass, unchecked."""
+        Kernel: does not validate ``q``, which must be a finite float64 (6,) array [rad].
+        """
         model, data = self.model, self._thread_data.data
         pin.computeJointJacobians(model, data, q)
         J_C = pin.getFrameJacobian(model, data, self._camera_id, pin.LOCAL)
         return pin.updateFramePlacement(model, data, self._camera_id).homogeneous, J_C
 
-    def _forward_dynamics(self, q: np.ndarray, dq: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """`forward_dynamics` without the argument checks (RK4 stages of the plant)."""
-        return pin.aba(self.model, self._thread_data.data, q, dq, tau - self.damping * dq)
-
-    def _inverse_dynamics(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
-        """`inverse_dynamics` without the argument checks: M(q) ddq + h(q, dq) in one RNEA pass."""
-        return pin.rnea(self.model, self._thread_data.data, q, dq, ddq) + self.damping * dq
-
     # ------------------------------------------------------------------ dynamics
     def mass_matrix(self, q: Any) -> np.ndarray:
         """M(q) = D(q) + J (6, 6), Eq. (31): CRBA with the armature, both triangles filled."""
-        M = pin.crba(self.model, self._thread_data.data, self._vec(q, "q"))
+        M = pin.crba(self.model, self._thread_data.data, as_array(q, "q", _VEC))
         return np.triu(M) + np.triu(M, 1).T
 
     def nonlinear_effects(self, q: Any, dq: Any) -> np.ndarray:
         """h(q, dq) = C(q, dq) dq + g(q) + (B / r) dq (6,) [N m], Eq. (32)."""
-        dq = self._vec(dq, "dq")
-        h = pin.nonLinearEffects(self.model, self._thread_data.data, self._vec(q, "q"), dq)
+        dq = as_array(dq, "dq", _VEC)
+        h = pin.nonLinearEffects(self.model, self._thread_data.data, as_array(q, "q", _VEC), dq)
         return h + self.damping * dq
 
     def gravity(self, q: Any) -> np.ndarray:
         """g(q) (6,) [N m], the gravity torques of Eq. (29)."""
-        return pin.computeGeneralizedGravity(self.model, self._thread_data.data, self._vec(q, "q")).copy()
+        q = as_array(q, "q", _VEC)
+        return pin.computeGeneralizedGravity(self.model, self._thread_data.data, q).copy()
 
     def forward_dynamics(self, q: Any, dq: Any, tau: Any) -> np.ndarray:
-        """Joint accelerations ddq (6,) [rad/s^2] solving Eq. (30) M(q) ddq + h(q, dq) = tau.
+        """Joint accelerations ddq (6,) [rad/s^2] solving Eq. (30) M(q) ddq + h(q, dq) = tau (see `aba`)."""
+        q, dq, tau = as_array(q, "q", _VEC), as_array(dq, "dq", _VEC), as_array(tau, "tau", _VEC)
+        return self.aba(q, dq, tau).copy()
 
-        ABA (armature included) on ``tau - damping * dq``.
+    def aba(self, q: np.ndarray, dq: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """Joint accelerations ddq of Eq. (30) by the articulated-body algorithm, armature included.
+
+        Pinocchio's ABA on ``tau - damping * dq``. Kernel of `forward_dynamics`: does not
+        validate its arguments, which must be finite float64 (6,) arrays (q [rad], dq [rad/s],
+        tau [N m]). The result may be the thread's Pinocchio buffer (it depends on the Pinocchio
+        version): copy it to keep it past the next dynamics call, as `forward_dynamics` does.
         """
-        dq = self._vec(dq, "dq")
-        tau = self._vec(tau, "tau") - self.damping * dq
-        return pin.aba(self.model, self._thread_data.data, self._vec(q, "q"), dq, tau).copy()
+        return pin.aba(self.model, self._thread_data.data, q, dq, tau - self.damping * dq)
 
     def inverse_dynamics(self, q: Any, dq: Any, ddq: Any) -> np.ndarray:
-        """Joint torques tau = M(q) ddq + h(q, dq) (6,) [N m], Eq. (30) (RNEA with armature, plus damping)."""
-        dq = self._vec(dq, "dq")
-        tau = pin.rnea(self.model, self._thread_data.data, self._vec(q, "q"), dq, self._vec(ddq, "ddq"))
-        return tau + self.damping * dq
+        """Joint torques tau = M(q) ddq + h(q, dq) (6,) [N m], Eq. (30) (see `rnea`)."""
+        return self.rnea(as_array(q, "q", _VEC), as_array(dq, "dq", _VEC), as_array(ddq, "ddq", _VEC))
+
+    def rnea(self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray) -> np.ndarray:
+        """Joint torques tau = M(q) ddq + h(q, dq) of Eq. (30) in one recursive Newton-Euler pass.
+
+        The armature is in the model; the damping torque ``damping * dq`` is added. Kernel of
+        `inverse_dynamics` (and of Eq. (33), tau = M(q) v + h(q, dq)): does not validate its
+        arguments, which must be finite float64 (6,) arrays (q [rad], dq [rad/s], ddq [rad/s^2]).
+        """
+        return pin.rnea(self.model, self._thread_data.data, q, dq, ddq) + self.damping * dq
 
     def kinetic_energy(self, q: Any, dq: Any) -> float:
         """0.5 dq^T M(q) dq [J], rotor (armature) energy included."""
-        dq = self._vec(dq, "dq")
+        dq = as_array(dq, "dq", _VEC)
         return 0.5 * float(dq @ self.mass_matrix(q) @ dq)
 
     def potential_energy(self, q: Any) -> float:
         """Gravitational potential energy of the links and camera [J] (zero at base height)."""
-        return float(pin.computePotentialEnergy(self.model, self._thread_data.data, self._vec(q, "q")))
+        return float(pin.computePotentialEnergy(self.model, self._thread_data.data, as_array(q, "q", _VEC)))
 
     # ------------------------------------------------------------------ inverse kinematics
     def ik(self, T_O_C: Any, q_near: Any = None) -> np.ndarray:
@@ -362,7 +361,7 @@ class Arm:
         T_O_C = as_pose(T_O_C, "T_O_C").copy()
         U, _, Vt = np.linalg.svd(T_O_C[:3, :3])
         T_O_C[:3, :3] = U @ Vt
-        ref = np.zeros(_N) if q_near is None else as_array(q_near, "q_near", (_N,))
+        ref = np.zeros(_N) if q_near is None else as_array(q_near, "q_near", _VEC)
         if self.ik_parameters is not None:
             raw = closed_form_branches(self.ik_parameters, T_O_C @ self._T_C_E, ref)
         else:
@@ -381,15 +380,15 @@ class Arm:
             raise UnreachablePoseError(T_O_C, f"{self.name}: camera pose at {where} m: {why}")
         return solutions
 
-    def _ik_nearest(self, T_O_C: np.ndarray, q_near: np.ndarray) -> np.ndarray:
-        """``ik(T_O_C, q_near)[0]``, computed without building every branch (Eq. (62) hot path).
+    def ik_nearest(self, T_O_C: np.ndarray, q_near: np.ndarray) -> np.ndarray:
+        """``ik(T_O_C, q_near)[0]``, computed without building every branch (Eq. (62) at every frame).
 
-        Unchecked: ``T_O_C`` a rigid (4, 4) float pose (e.g. from stereo P3P, orthonormal to
-        rounding, so the projection onto SO(3) of :meth:`ik` is skipped) and ``q_near`` a finite
-        (6,) array. With the closed form, the nearest in-limit branch
-        (:func:`~ibvs_youla.model.ik.nearest_branch`) is returned if it passes the pose check of
-        :meth:`ik`; any other case (no closed form, nearest branch rejected, no branch) is
-        delegated to :meth:`ik`, which also raises its errors.
+        Kernel: does not validate its arguments. ``T_O_C`` must be a rigid (4, 4) float pose
+        (e.g. from stereo P3P, orthonormal to rounding, so the projection onto SO(3) of :meth:`ik`
+        is skipped) and ``q_near`` a finite float (6,) array [rad]. With the closed form, the
+        nearest in-limit branch (:func:`~ibvs_youla.model.ik.nearest_branch`) is returned if it
+        passes the pose check of :meth:`ik`; any other case (no closed form, nearest branch
+        rejected, no branch) is delegated to :meth:`ik`, which also raises its errors.
         """
         if self.ik_parameters is not None:
             T_O_E = T_O_C.dot(self._T_C_E)

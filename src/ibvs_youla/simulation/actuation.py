@@ -104,7 +104,7 @@ class InnerLoopActuator:
         """tau = M(q) G_C(z)[q_ref - q] + h(q, dq) (n,) [N m], from one RNEA pass."""
         q, dq = reading.q, reading.dq
         v = self._inner._step(q_ref - q)
-        return self._arm._inverse_dynamics(q, dq, v)
+        return self._arm.rnea(q, dq, v)
 
 
 def actuation_chain(

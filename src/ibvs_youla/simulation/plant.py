@@ -119,9 +119,7 @@ class ArmPlant:
         self._x_high = np.concatenate([self._q_max + margin, self._dq_bound])
         self._k = np.empty((4, 2 * n))  # RK4 stage derivatives of `_step`
         self._forward_dynamics = arm.forward_dynamics
-        # Unchecked twin for `_step` (an Arm's); the public step keeps the checked one.
-        self._forward_dynamics_unchecked = getattr(arm, "_forward_dynamics", arm.forward_dynamics)
-        self._camera_pose_unchecked = getattr(arm, "_camera_pose", arm.camera_pose)
+        self._aba = arm.aba  # the kernel of arm.forward_dynamics, for `_step`
         q_encoder = np.zeros(n) if q_encoder is None else q_encoder
         self.reset(q_encoder, np.zeros(n) if dq is None else dq, t=t)
 
@@ -155,12 +153,8 @@ class ArmPlant:
         return self._dq.copy()
 
     def camera_pose(self) -> np.ndarray:
-        """True camera pose ``T_O_C`` (4, 4): ``arm.camera_pose(q_true)``.
-
-        The state is the plant's own and finite (checked after every step), so the arm's
-        unchecked forward kinematics is called when it has one.
-        """
-        return self._camera_pose_unchecked(self._q)
+        """True camera pose ``T_O_C`` (4, 4): ``arm.camera_pose(q_true)``."""
+        return self.arm.camera_pose(self._q)
 
     # ------------------------------------------------------------------ servo-loop role
     name = "dynamic"
@@ -235,7 +229,7 @@ class ArmPlant:
         if self.saturate_torque:
             self.step(tau, dt)
             return
-        x = _rk4_arm_step_packed(self._forward_dynamics_unchecked, self._x, tau, dt, self._k)
+        x = _rk4_arm_step_packed(self._aba, self._x, tau, dt, self._k)
         ok = x >= self._x_low
         ok &= x <= self._x_high
         if not ok.all():

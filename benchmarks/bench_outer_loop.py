@@ -31,7 +31,6 @@ Run: ``python benchmarks/bench_outer_loop.py --json outer_loop.json``.
 from __future__ import annotations
 
 import argparse
-import copy
 import gc
 import sys
 from typing import Any
@@ -46,9 +45,11 @@ except ImportError:  # run as a script
     from _timing import machine, perf_counter, summary_us, write_json
 
 from ibvs_youla import scenarios
+from ibvs_youla.control.discrete import DiscreteFilter
 from ibvs_youla.control.literal import literal_mimo
 from ibvs_youla.control.outer import OuterLoopDesign
 from ibvs_youla.controllers import JointReading, ServoTask, YoulaController
+from ibvs_youla.estimation.eye_in_hand import EyeInHand
 from ibvs_youla.model.arm import Arm
 from ibvs_youla.model.camera import StereoCamera, project_points, visible_points
 from ibvs_youla.simulation.sensor import MarkerSensor
@@ -71,7 +72,7 @@ def _configurations(arm: Arm, n: int, seed: int) -> list[tuple[Any, np.ndarray]]
 
 
 class _Frame:
-    """One scenario's sensor and paper controller, built through the public roles."""
+    """One scenario's sensor and paper controller, built through the public roles, and the parts."""
 
     def __init__(self, sc: Any, arm: Arm, camera: StereoCamera) -> None:
         settings = SimulationSettings.paper()  # adaptive outer loop at every 1 kHz sample
@@ -82,10 +83,15 @@ class _Frame:
             T_O_C_target=T_target, tick_period=settings.dt, frame_period=settings.dt,
             virtual_points=sc.virtual_points, arm=arm, q_start=sc.q_start, q_target=sc.q_target,
         )
-        self.controller = YoulaController(feedforward=True, adaptive=True,
-                                          settings=settings.controller_settings())
+        s = settings.controller_settings()
+        self.controller = YoulaController(feedforward=True, adaptive=True, settings=s)
         self.controller.reset(self.task)
         self.arm = arm
+        # The update's parts, built as the controller builds its own, for the timed parts.
+        self.eye = EyeInHand(arm, camera, sc.markers_O, virtual_points=sc.virtual_points)
+        design = OuterLoopDesign(s.omega_n, s.zeta, s.tau_in, s.sv_policy)
+        self.policy = design.sv_policy
+        self.filter = DiscreteFilter.from_tf(design.filter_tf(), settings.dt, arm.nq)
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
@@ -104,18 +110,17 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     configs = _configurations(arm, args.configs, args.seed)
 
     # Data of each configuration, computed once with the library's checked methods.
-    outers = {name: copy.deepcopy(run.controller._outer) for name, run in runs.items()}  # for the timed parts
     prepared = []
     for sc, q_true in configs:
         run = runs[sc.name]
-        eye = run.controller._eye
+        eye = run.eye
         q_enc = q_true - sc.joint_offset  # Eq. (62) picks the branch nearest the encoders
         p = eye.features(q_true)
         q_est = eye.estimate_q(p, q_enc)
         J = eye.jacobian(q_est)
         H = eye.camera.triangulate(p.reshape(-1, 3), allow_behind=True)
         H = (H - H.mean(axis=0)).T @ (eye.markers_O - eye.markers_O.mean(axis=0))
-        prepared.append((run, outers[sc.name], q_true, q_enc, q_est, J, H))
+        prepared.append((run, q_true, q_enc, q_est, J, H))
 
     names = ("update", *PARTS, *FLOOR, "svd_9x6_numpy", "svd_3x3_numpy")
     times: dict[str, list[float]] = {k: [] for k in names}
@@ -123,7 +128,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     zeros = np.zeros(6)
 
     def update_pass(record: bool) -> None:
-        for run, _, q_true, q_enc, _, _, _ in prepared:
+        for run, q_true, q_enc, _, _, _ in prepared:
             reading = JointReading(0.0, q_enc, zeros)  # this configuration, at rest
             t0 = perf_counter()
             frame = run.sensor.measure(run.arm.camera_pose(q_true), 0.0)  # the update, as the loop runs it
@@ -134,8 +139,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
 
     def parts_pass(record: bool) -> None:
         """The update's parts in its order, calling what the sensor and the controller call."""
-        for run, outer, q_true, q_enc, _, _, _ in prepared:
-            eye, camera = run.controller._eye, run.controller._eye.camera
+        for run, q_true, q_enc, _, _, _ in prepared:
+            eye, camera = run.eye, run.eye.camera
             t = [perf_counter()]
             P_C = run.sensor.points_in_camera(run.arm.camera_pose(q_true))
             p_meas = project_points(camera, P_C, eye.virtual_points)
@@ -146,10 +151,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             t.append(perf_counter())
             J_hat = eye.image_jacobian(q_hat)
             t.append(perf_counter())
-            U, _, g, Vt = outer._policy._svd_gains(J_hat)
+            U, _, g, Vt = run.policy.svd_gains(J_hat)
             t.append(perf_counter())
-            # the state update as OuterLoopController._update does it
-            outer._filter._step(Vt.T.dot(g * U.T.dot(run.controller._p_target - p_meas)))
+            # the state update as OuterLoopController.advance does it
+            run.filter.step(Vt.T.dot(g * U.T.dot(run.task.feature_target - p_meas)))
             t.append(perf_counter())
             if record:
                 for name, a, b in zip(PARTS, t[:-1], t[1:], strict=True):
@@ -157,7 +162,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
 
     def floor_pass(record: bool) -> None:
         """The bare Pinocchio and LAPACK calls on the same data (and numpy's SVD wrapper)."""
-        for _, _, q_true, _, q_est, J, H in prepared:
+        for _, q_true, _, q_est, J, H in prepared:
             t = [perf_counter()]
             pin.forwardKinematics(model, data, q_true)
             pin.updateFramePlacement(model, data, cam_id)
@@ -189,9 +194,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     s = SimulationSettings.paper()
     design = OuterLoopDesign(s.omega_n, s.zeta, s.tau_in, s.sv_policy)
     rebuild = []
-    literal_mimo(design, prepared[0][5])  # warm-up
+    literal_mimo(design, prepared[0][4])  # warm-up
     for i in range(args.rebuilds):
-        J = prepared[i % len(prepared)][5]
+        J = prepared[i % len(prepared)][4]
         t0 = perf_counter()
         literal_mimo(design, J)
         rebuild.append(perf_counter() - t0)

@@ -354,16 +354,29 @@ def test_direct_lapack_svd_equals_numpy_svd():
         np.testing.assert_allclose((U * s) @ Vt, A, rtol=0, atol=1e-14)
 
 
+def literal_gains(policy, s, size):
+    """g(sigma) of the SingularValuePolicy docstring as array formulas (s descending)."""
+    keep = s > size * np.finfo(float).eps * s[0]  # the numerical rank tolerance
+    g = np.zeros_like(s)
+    if policy.kind == "damped":
+        g[keep] = s[keep] / (s[keep] ** 2 + (policy.threshold * s[0]) ** 2)
+    else:
+        keep &= s > policy.threshold * s[0]
+        g[keep] = 1.0 / s[keep]
+    return g
+
+
 @pytest.mark.parametrize("policy", [SingularValuePolicy(), SingularValuePolicy("truncate", 0.05),
                                     SingularValuePolicy("damped", 0.0)])
-def test_scalar_gains_and_pseudo_inverse_equal_the_array_versions(policy):
+def test_gains_and_pseudo_inverse_equal_the_array_formulas(policy):
     rng = np.random.default_rng(SEED + 10)
     for rank in (6, 5, 4):
         for _ in range(20):
             J = rng.normal(size=(9, rank)) @ rng.normal(size=(rank, 6))  # rank-deficient when rank < 6
             U, s, Vt = np.linalg.svd(J, full_matrices=False)
-            g = policy.gains(s, 9)
-            dec = policy._decompose(J)
+            g = literal_gains(policy, s, 9)
+            np.testing.assert_allclose(policy.gains(s, 9), g, rtol=1e-12, atol=1e-300)
+            dec = policy.decompose(J)
             np.testing.assert_allclose(dec.sigma, s, rtol=1e-13, atol=1e-15)
             np.testing.assert_allclose(dec.gains, g, rtol=1e-12, atol=1e-300)
             np.testing.assert_allclose(dec.pinv, (Vt.T * g) @ U.T, rtol=0, atol=1e-12 * np.abs(g).max())
@@ -399,21 +412,31 @@ def test_filter_copies_keep_their_state():
     assert np.abs(filt.state).max() > 0.0
 
 
-def test_unchecked_outer_update_equals_update(arm, camera):
+def test_outer_update_equals_the_filter_recursion_on_the_pseudo_inverse(arm, camera):
+    """q_fb = K(z)[P e] with P = V diag(g) U^T from numpy's SVD, K's state-space recursion written here."""
     design = OuterLoopDesign()
     a, b = design.runtime(1e-3), design.runtime(1e-3)
     a.reset(np.full(6, 0.1))
     b.reset(np.full(6, 0.1))
+    ref = DiscreteFilter.from_tf(design.filter_tf(), 1e-3, 6)
+    ref.reset_output(np.full(6, 0.1))  # as the controllers' reset
+    (A, B, C, D), x = ref.matrices, ref.state
     sc = scenarios.paper(2)
     eye = EyeInHand(arm, camera, sc.markers_O, virtual_points=True)
     rng = np.random.default_rng(SEED + 12)
     for _ in range(200):
         q = sc.q_start + rng.normal(0.0, 0.2, 6)
         J, e = eye.jacobian(q), rng.normal(0.0, 1e-4, 9)
-        np.testing.assert_allclose(a._update(e, J), b.update(e, J), rtol=1e-12, atol=1e-15)
-    dec_a, dec_b = a.last_decomposition, b.last_decomposition
-    for x, y in zip(dec_a, dec_b, strict=True):
-        np.testing.assert_allclose(np.abs(x), np.abs(y), rtol=1e-12, atol=1e-12)  # vectors up to sign
+        U, s, Vt = np.linalg.svd(J, full_matrices=False)
+        g = literal_gains(design.sv_policy, s, 9)
+        Pe = ((Vt.T * g) @ U.T) @ e
+        q_fb = C @ x + D * Pe
+        x = A @ x + np.outer(B, Pe)
+        np.testing.assert_allclose(a.advance(e, J), q_fb, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(b.update(e, J), q_fb, rtol=1e-12, atol=1e-15)
+    dec = a.last_decomposition
+    for got, expected in zip(dec, (U, s, g, Vt, (Vt.T * g) @ U.T), strict=True):
+        np.testing.assert_allclose(np.abs(got), np.abs(expected), rtol=1e-12, atol=1e-12)  # up to sign
 
 
 # --------------------------------------------------------------------------- plant and simulation loop

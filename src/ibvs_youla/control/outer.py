@@ -192,7 +192,7 @@ class OuterLoopController:
         self._n = n_joints
         self._fixed: SvdGains | None = None
         self._last: SvdGains | None = None
-        self._last_raw: tuple[np.ndarray, ...] | None = None  # (U, sigma, gains, Vt) of `_update`
+        self._last_raw: tuple[np.ndarray, ...] | None = None  # (U, sigma, gains, Vt) of `advance`
         self._q_fb = np.zeros(n_joints)
         if J is not None:
             self.set_jacobian(J)
@@ -212,8 +212,7 @@ class OuterLoopController:
     def last_decomposition(self) -> SvdGains | None:
         """SVD and gains used by the last update (or the fixed one), for logging."""
         if self._last_raw is not None:
-            U, s, g, Vt = self._last_raw
-            self._last, self._last_raw = SvdGains(U, s, g, Vt, (Vt.T * g).dot(U.T)), None
+            self._last, self._last_raw = SvdGains.from_svd(*self._last_raw), None
         return self._last
 
     def set_jacobian(self, J: Any) -> None:
@@ -232,26 +231,26 @@ class OuterLoopController:
         Returns:
             q_fb [rad], shape (n,), the feedback joint reference added to q_ff.
         """
-        if J is None:
-            if self._fixed is None:
-                raise InvalidParameterError("J", None, "an (m, n) Jacobian: no fixed Jacobian was set")
-            dec = self._fixed
-        else:
-            dec = self._policy.decompose(as_array(J, "J", (None, self._n)))
-            self._last, self._last_raw = dec, None
-        e = as_array(e_image, "e_image", (dec.pinv.shape[1],))
-        self._q_fb = self._filter.step(dec.pinv @ e)
+        if J is not None:
+            J = as_array(J, "J", (None, self._n))
+            return self.advance(as_array(e_image, "e_image", (J.shape[0],)), J).copy()
+        if self._fixed is None:
+            raise InvalidParameterError("J", None, "an (m, n) Jacobian: no fixed Jacobian was set")
+        P = self._fixed.pinv
+        self._q_fb = self._filter.step(P @ as_array(e_image, "e_image", (P.shape[1],)))
         return self._q_fb.copy()
 
-    def _update(self, e_image: np.ndarray, J: np.ndarray) -> np.ndarray:
-        """Adaptive `update` on finite float arrays e (m,) and J (m, n), unchecked.
+    def advance(self, e_image: np.ndarray, J: np.ndarray) -> np.ndarray:
+        """One adaptive camera sample, q_fb = K(z)[V diag(g) U^T e] with J = U Sigma V^T.
 
-        P e is evaluated as V (g * (U^T e)) (equal to ``pinv @ e`` up to rounding); the
-        pseudo-inverse itself is formed only if :attr:`last_decomposition` is read.
-        Returns the controller's own q_fb array (not a copy): do not modify it.
+        Kernel of ``update(e_image, J)``, called by the servo loop's controller at every frame:
+        does not validate its arguments, which must be finite float64 arrays e (m,) [m on the
+        sensor] and J (m, n). P e is evaluated as V (g * (U^T e)); the pseudo-inverse itself is
+        formed only if :attr:`last_decomposition` is read. Returns the controller's own q_fb
+        array (not a copy): do not modify it.
         """
-        U, _, g, Vt = self._last_raw = self._policy._svd_gains(J)
-        self._q_fb = self._filter._step(Vt.T.dot(g * U.T.dot(e_image)))
+        U, _, g, Vt = self._last_raw = self._policy.svd_gains(J)
+        self._q_fb = self._filter.step(Vt.T.dot(g * U.T.dot(e_image)))
         return self._q_fb
 
     def reset(self, q_fb0: Any = None) -> None:

@@ -39,6 +39,11 @@ class SvdGains(NamedTuple):
     Vt: np.ndarray
     pinv: np.ndarray
 
+    @classmethod
+    def from_svd(cls, U: np.ndarray, sigma: np.ndarray, gains: np.ndarray, Vt: np.ndarray) -> SvdGains:
+        """The SVD and gains with their pseudo-inverse V diag(g) U^T formed."""
+        return cls(U, sigma, gains, Vt, (Vt.T * gains).dot(U.T))
+
 
 @dataclass(frozen=True)
 class SingularValuePolicy:
@@ -82,50 +87,39 @@ class SingularValuePolicy:
         Args:
             sigma: Singular values (k,), descending.
             size: max(m, n) of the Jacobian, for the rank tolerance (default k).
+
+        Raises:
+            SingularConfigurationError: every singular value is zero (or there is none).
         """
         s = as_array(sigma, "sigma", (None,))
-        smax = float(s[0]) if s.size else 0.0
-        if smax <= 0.0:
-            raise SingularConfigurationError(s, "the Jacobian is zero: no direction can be controlled")
-        zero = s <= (size or s.size) * np.finfo(float).eps * smax
-        g = np.zeros_like(s)
-        keep = ~zero
-        if self.kind == "damped":
-            lam = self.threshold * smax
-            g[keep] = s[keep] / (s[keep] ** 2 + lam**2)
-        else:
-            keep &= s > self.threshold * smax
-            g[keep] = 1.0 / s[keep]
-        return g
+        return np.array(self._gains(s.tolist(), size or s.size))
 
-    def decompose(self, J: Any) -> SvdGains:
-        """Economy SVD of J (m, n) and the regularized pseudo-inverse."""
-        return self._decompose(as_array(J, "J", (None, None)))
-
-    def _decompose(self, J: np.ndarray) -> SvdGains:
-        """`decompose` of a finite float (m, n) array, unchecked."""
-        U, s, gains, Vt = self._svd_gains(J)
-        return SvdGains(U, s, gains, Vt, (Vt.T * gains).dot(U.T))
-
-    def _svd_gains(self, J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(U, sigma, gains, Vt) of a finite float (m, n) array, unchecked (every adaptive frame).
-
-        LAPACK ``dgesdd`` called directly (:func:`ibvs_youla._linalg.svd`) and the gains of
-        :meth:`gains` in scalar arithmetic (same operations, same floats).
-        """
-        U, s, Vt = svd(J)
-        sigma = s.tolist()
+    def _gains(self, sigma: list[float], size: int) -> list[float]:
+        """g(sigma_i) of descending singular values, in scalar arithmetic (class docstring)."""
         smax = sigma[0] if sigma else 0.0
         if smax <= 0.0:
-            self.gains(s)  # raises SingularConfigurationError
-        zero = max(J.shape) * _EPS * smax  # numerical rank tolerance
+            raise SingularConfigurationError(
+                np.array(sigma), "the Jacobian is zero: no direction can be controlled")
+        zero = size * _EPS * smax  # numerical rank tolerance
         if self.kind == "damped":
             lam2 = (self.threshold * smax) ** 2
-            g = [x / (x * x + lam2) if x > zero else 0.0 for x in sigma]
-        else:
-            cut = self.threshold * smax
-            g = [1.0 / x if x > zero and x > cut else 0.0 for x in sigma]
-        return U, s, np.array(g), Vt
+            return [x / (x * x + lam2) if x > zero else 0.0 for x in sigma]
+        cut = self.threshold * smax
+        return [1.0 / x if x > zero and x > cut else 0.0 for x in sigma]
+
+    def decompose(self, J: Any) -> SvdGains:
+        """Economy SVD of J (m, n), the gains and the regularized pseudo-inverse V diag(g) U^T."""
+        return SvdGains.from_svd(*self.svd_gains(as_array(J, "J", (None, None))))
+
+    def svd_gains(self, J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(U, sigma, gains, Vt) of J (m, n): `decompose` without the pseudo-inverse.
+
+        Kernel of `decompose`, called by the outer loop at every adaptive frame: does not
+        validate ``J``, which must be a finite float64 (m, n) array. LAPACK ``dgesdd`` is
+        called directly (:func:`ibvs_youla._linalg.svd`).
+        """
+        U, s, Vt = svd(J)
+        return U, s, np.array(self._gains(s.tolist(), max(J.shape))), Vt
 
     def pseudo_inverse(self, J: Any) -> np.ndarray:
         """Regularized pseudo-inverse V diag(g(sigma)) U^T of J, shape (n, m)."""

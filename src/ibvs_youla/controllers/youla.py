@@ -217,7 +217,7 @@ class YoulaController(Controller):
         e = self._p_target - p
         if self.adaptive:
             J = self._eye.image_jacobian(self._configuration_estimate(p, q_enc))
-            self._q_fb = self._outer._update(e, J)
+            self._q_fb = self._outer.advance(e, J)
         else:
             if self._first_frame:
                 s = self.settings

@@ -103,7 +103,7 @@ class InnerLoopActuator:
     def __call__(self, q_ref: np.ndarray, reading: JointReading) -> np.ndarray:
         """tau = M(q) G_C(z)[q_ref - q] + h(q, dq) (n,) [N m], from one RNEA pass."""
         q, dq = reading.q, reading.dq
-        v = self._inner._step(q_ref - q)
+        v = self._inner.step(q_ref - q)
         return self._arm.rnea(q, dq, v)
 
 

@@ -30,7 +30,7 @@ from ibvs_youla.model.ik import (
     nearest_branch,
     select_branches,
 )
-from ibvs_youla.simulation.integrators import _rk4_arm_step_packed, rk4_arm_step
+from ibvs_youla.simulation.integrators import rk4_arm_step
 from ibvs_youla.simulation.plant import ArmPlant
 
 SEED = 20240611
@@ -440,45 +440,63 @@ def test_outer_update_equals_the_filter_recursion_on_the_pseudo_inverse(arm, cam
 
 
 # --------------------------------------------------------------------------- plant and simulation loop
-def test_packed_rk4_equals_rk4_arm_step(arm):
+def literal_rk4(forward_dynamics, q, dq, tau, dt):
+    """Classical RK4 on dq/dt = v, dv/dt = FD(q, v, tau), tau held, written stage by stage on (q, dq)."""
+    v1, a1 = dq, forward_dynamics(q, dq, tau)
+    v2 = dq + 0.5 * dt * a1
+    a2 = forward_dynamics(q + 0.5 * dt * v1, v2, tau)
+    v3 = dq + 0.5 * dt * a2
+    a3 = forward_dynamics(q + 0.5 * dt * v2, v3, tau)
+    v4 = dq + dt * a3
+    a4 = forward_dynamics(q + dt * v3, v4, tau)
+    return q + dt / 6.0 * (v1 + 2.0 * v2 + 2.0 * v3 + v4), dq + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+
+
+def test_packed_rk4_equals_the_stage_by_stage_formula(arm):
     rng = np.random.default_rng(SEED + 13)
     k = np.empty((4, 12))
     for q in random_q(arm, rng, 50):
         dq, tau = rng.normal(0, 1, 6), rng.normal(0, 500, 6)
-        q1, dq1 = rk4_arm_step(arm.forward_dynamics, q, dq, tau, 1e-3)
-        x1 = _rk4_arm_step_packed(arm.aba, np.concatenate([q, dq]), tau, 1e-3, k)
+        q1, dq1 = literal_rk4(arm.forward_dynamics, q, dq, tau, 1e-3)
+        x1 = rk4_arm_step(arm.aba, np.concatenate([q, dq]), tau, 1e-3, k)
         np.testing.assert_allclose(x1[:6], q1, rtol=0, atol=1e-15)
         np.testing.assert_allclose(x1[6:], dq1, rtol=0, atol=1e-12 * np.abs(dq1).max())
 
 
 @pytest.mark.parametrize(("saturate_torque", "saturate_speed"),
                          [(False, False), (True, True), (False, True), (True, False)])
-def test_plant_fast_step_equals_step(arm, saturate_torque, saturate_speed):
+def test_plant_step_equals_the_stage_by_stage_formula_with_saturation(arm, saturate_torque, saturate_speed):
     d = np.full(6, np.radians(1.0))
     q0 = scenarios.paper(2).q_start
     flags = {"saturate_torque": saturate_torque, "saturate_speed": saturate_speed}
     a = ArmPlant(arm, d, q_encoder=q0, **flags)
     b = ArmPlant(arm, d, q_encoder=q0, **flags)
+    q, dq, t = q0 + d, np.zeros(6), 0.0
     rng = np.random.default_rng(SEED + 14)
     for _ in range(200):
         tau = arm.gravity(a.q_true) + rng.normal(0.0, 300.0, 6)
         with np.errstate(all="ignore"):
-            a._step(tau, 1e-3)
+            a.apply(tau, 1e-3)
         b.step(tau, 1e-3)
-        np.testing.assert_allclose(a.q_true, b.q_true, rtol=0, atol=1e-12)
-        np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=1e-10)
-        np.testing.assert_array_equal(a.q_encoder, a.q_true - d)
-        assert a.t == b.t
-    np.testing.assert_array_equal(a.last_tau, b.last_tau)
+        held = np.clip(tau, -arm.tau_max, arm.tau_max) if saturate_torque else tau
+        q, dq = literal_rk4(arm.forward_dynamics, q, dq, held, 1e-3)
+        dq = np.clip(dq, -arm.dq_max, arm.dq_max) if saturate_speed else dq
+        t += 1e-3
+        for plant in (a, b):
+            np.testing.assert_allclose(plant.q_true, q, rtol=0, atol=1e-12)
+            np.testing.assert_allclose(plant.dq, dq, rtol=0, atol=1e-10)
+            np.testing.assert_array_equal(plant.q_encoder, plant.q_true - d)
+            np.testing.assert_array_equal(plant.last_tau, held)
+            assert plant.t == t
 
 
 @pytest.mark.parametrize("tau", [np.full(6, 1e12), np.full(6, np.nan)])
-def test_plant_fast_step_raises_the_same_divergence(arm, tau):
+def test_plant_apply_raises_the_divergence_step_raises(arm, tau):
     errors = []
-    for fast in (True, False):
+    for loop in (True, False):
         plant = ArmPlant(arm, q_encoder=np.zeros(6))
         with pytest.raises(SimulationDivergedError) as info, np.errstate(all="ignore"):
-            (plant._step if fast else plant.step)(tau, 1e-3)
+            (plant.apply if loop else plant.step)(tau, 1e-3)
         errors.append(info.value)
         np.testing.assert_array_equal(plant.q_true, np.zeros(6))  # state kept at the failed step's start
     assert str(errors[0]) == str(errors[1])

@@ -14,10 +14,12 @@ Two entry points:
 
 * :func:`rk4_step` — generic, for any ODE ``dx/dt = f(t, x)`` on a flat state vector.
 * :func:`rk4_arm_step` — specialised for a joint-space arm ``ddq = FD(q, dq, tau)``
-  with ``tau`` held: no state packing and no time argument (the arm is autonomous for
-  a held torque), four forward-dynamics calls per step. Joint coordinates are added
-  directly (``q + dt * dq``), which is exact for revolute and prismatic joints
-  (configuration space R^n), the case of the IRB 4600.
+  with ``tau`` held, on the packed state ``x = [q; dq]``: no time argument (the arm is
+  autonomous for a held torque), four forward-dynamics calls per step, the stage
+  derivatives in a reusable scratch array. Joint coordinates are added directly
+  (``q + dt * dq``), which is exact for revolute and prismatic joints (configuration
+  space R^n), the case of the IRB 4600. It is the plant's integrator
+  (:class:`~ibvs_youla.simulation.plant.ArmPlant`) and does not validate its arguments.
 """
 
 from __future__ import annotations
@@ -60,61 +62,41 @@ def rk4_step(f: OdeRhs, t: float, x: np.ndarray, dt: float) -> np.ndarray:
     return x + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
-def rk4_arm_step(
-    forward_dynamics: ForwardDynamics,
-    q: np.ndarray,
-    dq: np.ndarray,
-    tau: np.ndarray,
-    dt: float,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Advance joint-space arm dynamics by one RK4 step, torque held (zero-order hold).
-
-    Integrates ``dq/dt = v``, ``dv/dt = FD(q, v, tau)`` (Eq. (29) solved for the
-    acceleration) with ``tau`` constant over ``[t, t + dt]``. Same scheme and order as
-    :func:`rk4_step` on the stacked state ``[q; dq]``, without the stacking.
-
-    Args:
-        forward_dynamics: ``FD(q, dq, tau) -> ddq`` [rad/s^2], e.g. ``arm.forward_dynamics``.
-        q: Joint angles at the start of the step (n,) [rad] (not modified).
-        dq: Joint velocities at the start of the step (n,) [rad/s] (not modified).
-        tau: Joint torques held over the step (n,) [N m].
-        dt: Step [s].
-
-    Returns:
-        ``(q, dq)`` at the end of the step, new arrays [rad], [rad/s].
-    """
-    half = 0.5 * dt
-    v1 = dq
-    a1 = forward_dynamics(q, v1, tau)
-    v2 = dq + half * a1
-    a2 = forward_dynamics(q + half * v1, v2, tau)
-    v3 = dq + half * a2
-    a3 = forward_dynamics(q + half * v2, v3, tau)
-    v4 = dq + dt * a3
-    a4 = forward_dynamics(q + dt * v3, v4, tau)
-    sixth = dt / 6.0
-    q_next = q + sixth * (v1 + 2.0 * v2 + 2.0 * v3 + v4)
-    dq_next = dq + sixth * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-    return q_next, dq_next
-
-
 _RK4_WEIGHTS = np.array([1.0, 2.0, 2.0, 1.0]) / 6.0
 
 
-def _rk4_arm_step_packed(
-    forward_dynamics: ForwardDynamics, x: np.ndarray, tau: np.ndarray, dt: float, k: np.ndarray
+def rk4_arm_step(
+    forward_dynamics: ForwardDynamics,
+    x: np.ndarray,
+    tau: np.ndarray,
+    dt: float,
+    k: np.ndarray | None = None,
 ) -> np.ndarray:
-    """:func:`rk4_arm_step` on the packed state ``x = [q; dq]`` (2n,) (the simulator's plant).
+    """Advance joint-space arm dynamics by one RK4 step, torque held (zero-order hold).
 
-    The same stages with fewer array operations: each stage state is ``x + c k_i`` with
-    ``k_i = [v_i; a_i]`` written into row i of the scratch array ``k`` (4, 2n), and the
-    update is one product ``x + dt (w @ k)``, w = (1, 2, 2, 1)/6. Equal to
-    :func:`rk4_arm_step` up to rounding (the weighted sum is associated differently).
+    Integrates ``dq/dt = v``, ``dv/dt = FD(q, v, tau)`` (Eq. (29) solved for the
+    acceleration) with ``tau`` constant over ``[t, t + dt]``: :func:`rk4_step` on the
+    packed state ``x = [q; dq]``. Each stage state is ``x + c k_i`` with ``k_i = [v_i; a_i]``
+    written into row i of ``k`` (4, 2n), and the update is one product
+    ``x + dt (w @ k)``, w = (1, 2, 2, 1)/6.
+
+    Does not validate its arguments, which must be finite float arrays of the shapes below.
+
+    Args:
+        forward_dynamics: ``FD(q, dq, tau) -> ddq`` [rad/s^2], e.g. ``arm.forward_dynamics``
+            or its kernel ``arm.aba``; its result is copied at once, so it may reuse a buffer.
+        x: ``[q; dq]`` at the start of the step (2n,) [rad, rad/s] (not modified).
+        tau: Joint torques held over the step (n,) [N m].
+        dt: Step [s].
+        k: Scratch array (4, 2n) for the stage derivatives (the plant reuses one); ``None``
+            allocates it.
 
     Returns:
-        The packed state at the end of the step (a new array).
+        ``[q; dq]`` at the end of the step, a new (2n,) array.
     """
     n = x.shape[0] // 2
+    if k is None:
+        k = np.empty((4, 2 * n))
     half = 0.5 * dt
     k[0, :n] = v = x[n:]
     k[0, n:] = forward_dynamics(x[:n], v, tau)

@@ -45,7 +45,7 @@ import numpy as np
 from .._validation import as_array, positive
 from ..controllers.base import CommandType, JointReading
 from ..exceptions import InvalidParameterError, SimulationDivergedError
-from .integrators import _rk4_arm_step_packed, rk4_arm_step
+from .integrators import rk4_arm_step
 
 __all__ = ["ArmPlant", "DivergenceBounds"]
 
@@ -117,9 +117,8 @@ class ArmPlant:
         margin = self.bounds.position_margin
         self._x_low = np.concatenate([self._q_min - margin, -self._dq_bound])  # packed [q; dq] bounds
         self._x_high = np.concatenate([self._q_max + margin, self._dq_bound])
-        self._k = np.empty((4, 2 * n))  # RK4 stage derivatives of `_step`
-        self._forward_dynamics = arm.forward_dynamics
-        self._aba = arm.aba  # the kernel of arm.forward_dynamics, for `_step`
+        self._k = np.empty((4, 2 * n))  # RK4 stage derivatives of `apply`
+        self._aba = arm.aba  # the kernel of arm.forward_dynamics
         q_encoder = np.zeros(n) if q_encoder is None else q_encoder
         self.reset(q_encoder, np.zeros(n) if dq is None else dq, t=t)
 
@@ -175,61 +174,20 @@ class ArmPlant:
         return JointReading(self.t, self._q - self.joint_offset, self._dq)
 
     def apply(self, command: np.ndarray, dt: float) -> None:
-        """Hold the joint torque ``command`` (n,) [N m] over ``dt`` (RK4, see :meth:`step`)."""
-        self._step(command, dt)
+        """Hold the joint torque ``command`` (n,) [N m] over ``dt``: one RK4 step, then the divergence test.
 
-    def signals(self) -> dict[str, np.ndarray]:
-        """Plant signals recorded at tick rate: ``q`` (encoders), ``q_true``, ``dq``."""
-        return {"q": self._q - self.joint_offset, "q_true": self._q, "dq": self._dq}
-
-    # ------------------------------------------------------------------ dynamics
-    def step(self, tau: Any, dt: float) -> np.ndarray:
-        """Integrate one RK4 step with ``tau`` held, then check for divergence.
-
-        Args:
-            tau: Joint torques (n,) [N m], clipped at ``arm.tau_max`` if ``saturate_torque``.
-            dt: Step [s], > 0.
-
-        Returns:
-            The torque actually applied (after saturation) (n,) [N m].
-
-        Raises:
-            SimulationDivergedError: non-finite torque or state, or a bound exceeded; the
-                state is left at the start of the failed step.
+        The kernel of :meth:`step`, called by the servo loop at every tick: it does not
+        validate its arguments (``command`` a float (n,) array, possibly non-finite, ``dt`` >
+        0). The caller holds ``np.errstate(all="ignore")`` (the servo loop does). The
+        divergence test is one vectorized comparison of the packed state with its bounds
+        (NaN fails it); only when it fails are the quantities examined, in the order of the
+        module docstring, to raise SimulationDivergedError with the state left at the start
+        of the step.
         """
-        if not dt > 0.0:
-            positive(dt, "dt", unit="s")
-        tau = np.asarray(tau, dtype=float)
-        if tau.shape != (self._n,):
-            tau = as_array(tau, "tau", (self._n,), finite=False)
-        if not np.all(np.isfinite(tau)):
-            self._diverged(self.t, "tau", tau, "finite values")
+        tau = command
         if self.saturate_torque:
             tau = np.clip(tau, -self._tau_max, self._tau_max)
-        t_next = self.t + dt
-        with np.errstate(all="ignore"):
-            q_next, dq_next = rk4_arm_step(self._forward_dynamics, self._q, self._dq, tau, dt)
-        self._check(t_next, q_next, dq_next)
-        if self.saturate_speed:
-            dq_next = np.clip(dq_next, -self._dq_max, self._dq_max)
-        self._set_state(np.concatenate([q_next, dq_next]))
-        self.t = t_next
-        self.last_tau = tau
-        return tau
-
-    def _step(self, tau: np.ndarray, dt: float) -> None:
-        """`step` for the simulator: tau a float (n,) array, dt > 0, nothing returned.
-
-        The same RK4 step on the packed state (:func:`~.integrators._rk4_arm_step_packed`,
-        equal up to rounding), the arm's dynamics called without argument checks, and the
-        divergence test as one vectorized comparison (NaN fails it); only when it fails do
-        the checks of :meth:`step` run, in its order, to raise the same error. The caller
-        holds ``np.errstate(all="ignore")`` (the simulation loop does).
-        """
-        if self.saturate_torque:
-            self.step(tau, dt)
-            return
-        x = _rk4_arm_step_packed(self._aba, self._x, tau, dt, self._k)
+        x = rk4_arm_step(self._aba, self._x, tau, dt, self._k)
         ok = x >= self._x_low
         ok &= x <= self._x_high
         if not ok.all():
@@ -241,6 +199,33 @@ class ArmPlant:
         self._set_state(x)
         self.t += dt
         self.last_tau = tau
+
+    def signals(self) -> dict[str, np.ndarray]:
+        """Plant signals recorded at tick rate: ``q`` (encoders), ``q_true``, ``dq``."""
+        return {"q": self._q - self.joint_offset, "q_true": self._q, "dq": self._dq}
+
+    # ------------------------------------------------------------------ dynamics
+    def step(self, tau: Any, dt: float) -> np.ndarray:
+        """Integrate one RK4 step with ``tau`` held, then check for divergence (:meth:`apply`).
+
+        Args:
+            tau: Joint torques (n,) [N m], clipped at ``arm.tau_max`` if ``saturate_torque``.
+            dt: Step [s], > 0.
+
+        Returns:
+            The torque actually applied (after saturation) (n,) [N m].
+
+        Raises:
+            InvalidParameterError, InvalidArrayError: ``dt`` <= 0, ``tau`` not of shape (n,).
+            SimulationDivergedError: non-finite torque or state, or a bound exceeded; the
+                state is left at the start of the failed step.
+        """
+        if not dt > 0.0:
+            positive(dt, "dt", unit="s")
+        tau = as_array(tau, "tau", (self._n,), finite=False)  # a non-finite torque is a divergence
+        with np.errstate(all="ignore"):
+            self.apply(tau, dt)
+        return self.last_tau
 
     def _check(self, t: float, q: np.ndarray, dq: np.ndarray) -> None:
         for name, value in (("q", q), ("dq", dq)):

@@ -205,11 +205,12 @@ class _Sensor:
     def visibility(self, P_C: object) -> Visibility:
         """Visibility of points (n, 3) [m]: in front, inside every lens's sensor extent, in depth_range."""
         P_C = _points(P_C, "P_C")
-        flags = np.array(_visibility_flags(self, P_C), dtype=bool).reshape(-1, 3).T.copy()
-        depth = P_C[:, 2].copy()
-        for a in (flags, depth):
+        Z = P_C[:, 2].copy()  # [m]
+        in_fov = np.array(_view_flags(self, P_C)[0], dtype=bool)
+        flags = (Z >= MIN_ABS_DEPTH, in_fov, (Z >= self.depth_range[0]) & (Z <= self.depth_range[1]), Z)
+        for a in flags:
             a.flags.writeable = False
-        return Visibility(flags[0], flags[1], flags[2], depth)
+        return Visibility(*flags)
 
     def to_pixels(self, p: object) -> np.ndarray:
         """Feature rows [m on the sensor] -> [px] through K of Eq. (6) (the stereo lenses share K)."""
@@ -385,27 +386,28 @@ def visible_points(camera: StereoCamera | PinholeCamera, P_C: np.ndarray) -> lis
 
     Does not validate its input: ``P_C`` must be a float (n, 3) array [m].
     """
-    return [in_fov and in_range for _, in_fov, in_range in _visibility_flags(camera, P_C)]
+    return _view_flags(camera, P_C)[1]
 
 
-def _visibility_flags(camera: StereoCamera | PinholeCamera, P_C: np.ndarray) -> list[tuple[bool, bool, bool]]:
-    """(in front, in front and inside every lens's sensor extent, in depth_range) of each point (n, 3)."""
+def _view_flags(camera: StereoCamera | PinholeCamera, P_C: np.ndarray) -> tuple[list[bool], list[bool]]:
+    """Per point (n, 3): (in front and inside every lens's sensor extent, that and in depth_range)."""
     F, pitch, skew = camera.focal_length, camera.pixel_pitch, camera.skew
     u0, v0 = camera.principal_point
     u_max, v_max = camera.sensor_width / pitch, camera.sensor_height / pitch
     z_min, z_max = camera.depth_range
     lens_x, bounded = camera._lens_x, not camera.unbounded_view
-    out = []
+    in_fov, visible = [], []
     for X, Y, Z in P_C.tolist():
-        in_front = in_fov = Z >= MIN_ABS_DEPTH
-        if in_front and bounded:
+        in_view = Z >= MIN_ABS_DEPTH
+        if in_view and bounded:
             Fiz = F / Z
             v = Y * Fiz
-            in_fov = 0 <= v / pitch + v0 <= v_max and all(
-                0 <= (X - x0) * Fiz / pitch + skew * v / F + u0 <= u_max for x0 in lens_x
-            )
-        out.append((in_front, in_fov, z_min <= Z <= z_max))
-    return out
+            in_view = 0 <= v / pitch + v0 <= v_max  # pixel coordinates through K of Eq. (6)
+            for x0 in lens_x:  # a loop, not all(...): a generator costs more than the test
+                in_view = in_view and 0 <= (X - x0) * Fiz / pitch + skew * v / F + u0 <= u_max
+        in_fov.append(in_view)
+        visible.append(in_view and z_min <= Z <= z_max)
+    return in_fov, visible
 
 
 def default_camera(**overrides: object) -> StereoCamera:

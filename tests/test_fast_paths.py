@@ -1,9 +1,11 @@
 """The simulator's fast paths give the numbers of the straightforward code they replace.
 
-Each unchecked twin or scalar rewrite (IK nearest branch, stereo P3P, camera projection and
-visibility, image Jacobian, SVD gains, discrete filters, the plant's packed RK4, the simulation
-loop) is compared with the checked public method or with a literal reference written here, on
-seeded inputs. Timing is measured by ``benchmarks/``, never asserted here.
+Each kernel the simulator calls without input checks, and each scalar rewrite (closed-form and
+nearest-branch IK, stereo P3P, camera projection and visibility, arm dynamics, image Jacobian,
+SVD gains, the outer loop and its filter, the packed RK4 and the plant step), is compared with
+a literal reference written here (array formulas, Pinocchio's own calls, the first matrix form
+of the IK), on seeded inputs. The checked public methods call the same kernels. Timing is
+measured by ``benchmarks/``, never asserted here.
 """
 
 from __future__ import annotations

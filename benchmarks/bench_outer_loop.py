@@ -79,9 +79,16 @@ class _Frame:
         self.sensor = MarkerSensor(camera, sc.markers_O, virtual_points=sc.virtual_points)
         T_target = arm.camera_pose(sc.q_target)
         self.task = ServoTask(
-            camera=camera, markers_O=sc.markers_O, feature_target=self.sensor.features_at(T_target),
-            T_O_C_target=T_target, tick_period=settings.dt, frame_period=settings.dt,
-            virtual_points=sc.virtual_points, arm=arm, q_start=sc.q_start, q_target=sc.q_target,
+            camera=camera,
+            markers_O=sc.markers_O,
+            feature_target=self.sensor.features_at(T_target),
+            T_O_C_target=T_target,
+            tick_period=settings.dt,
+            frame_period=settings.dt,
+            virtual_points=sc.virtual_points,
+            arm=arm,
+            q_start=sc.q_start,
+            q_target=sc.q_target,
         )
         s = settings.controller_settings()
         self.controller = YoulaController(feedforward=True, adaptive=True, settings=s)
@@ -204,8 +211,11 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     stats = {name: summary_us(v) for name, v in times.items()}
     update = stats["update"]
     floor = sum(stats[name]["median_us"] for name in FLOOR)
-    floor_numpy = floor - stats["svd_9x6"]["median_us"] - stats["svd_3x3"]["median_us"] + (
-        stats["svd_9x6_numpy"]["median_us"] + stats["svd_3x3_numpy"]["median_us"]
+    floor_numpy = (
+        floor
+        - stats["svd_9x6"]["median_us"]
+        - stats["svd_3x3"]["median_us"]
+        + (stats["svd_9x6_numpy"]["median_us"] + stats["svd_3x3_numpy"]["median_us"])
     )
     rebuild_stats = summary_us(rebuild)
     report: dict[str, Any] = {
@@ -220,8 +230,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "parts_sum_median_us": sum(stats[name]["median_us"] for name in PARTS),
         "floor_numpy_svd_median_us": floor_numpy,
         "stats": {**stats, "rebuild": rebuild_stats},
-        "settings": {"configs": args.configs, "repeats": args.repeats, "rebuilds": args.rebuilds,
-                     "seed": args.seed},
+        "settings": {
+            "configs": args.configs,
+            "repeats": args.repeats,
+            "rebuilds": args.rebuilds,
+            "seed": args.seed,
+        },
         "machine": machine(),
     }
     _print(report)
@@ -231,16 +245,22 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
 
 def _print(r: dict[str, Any]) -> None:
     s = r["stats"]
-    print(f"adaptive outer-loop update: median {r['update_median_us']:.1f} us, "
-          f"p95 {r['update_p95_us']:.1f} us (n = {s['update']['n']})")
+    print(
+        f"adaptive outer-loop update: median {r['update_median_us']:.1f} us, "
+        f"p95 {r['update_p95_us']:.1f} us (n = {s['update']['n']})"
+    )
     for name in PARTS:
         print(f"  {name:<14} {s[name]['median_us']:8.2f} us  (p95 {s[name]['p95_us']:.2f})")
-    print(f"floor {r['floor_median_us']:.2f} us  (ratio update/floor {r['ratio_to_floor']:.2f}; "
-          f"with numpy's svd wrapper {r['floor_numpy_svd_median_us']:.2f} us)")
+    print(
+        f"floor {r['floor_median_us']:.2f} us  (ratio update/floor {r['ratio_to_floor']:.2f}; "
+        f"with numpy's svd wrapper {r['floor_numpy_svd_median_us']:.2f} us)"
+    )
     for name in (*FLOOR, "svd_9x6_numpy", "svd_3x3_numpy"):
         print(f"  {name:<14} {s[name]['median_us']:8.2f} us")
-    print(f"literal python-control rebuild: median {r['rebuild_median_us'] / 1e3:.2f} ms, "
-          f"{r['rebuild_ratio']:.0f}x the update")
+    print(
+        f"literal python-control rebuild: median {r['rebuild_median_us'] / 1e3:.2f} ms, "
+        f"{r['rebuild_ratio']:.0f}x the update"
+    )
 
 
 if __name__ == "__main__":

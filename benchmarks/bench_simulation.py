@@ -51,8 +51,11 @@ def _split(result: Any, wall: float, settings: SimulationSettings) -> dict:
         "dynamics_us_per_step": phases["plant"] / n_ticks * 1e6,
         "outer_us_per_frame": phases["frame"] / frames * 1e6,
         "joint_control_us_per_step": phases["control"] / (n_ticks + 1) * 1e6,
-        "fraction": {"dynamics": phases["plant"] / total, "outer": phases["frame"] / total,
-                     "joint_control": phases["control"] / total},
+        "fraction": {
+            "dynamics": phases["plant"] / total,
+            "outer": phases["frame"] / total,
+            "joint_control": phases["control"] / total,
+        },
         "ticks": n_ticks + 1,
         "recorded": steps,
     }
@@ -76,8 +79,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             walls, results = [], []
             for _ in range(args.repeats):
                 t0 = perf_counter()
-                result = ibvs_youla.simulate(sc, "ff+fb", True, args.duration, settings=settings, arm=arm,
-                                             camera=camera)
+                result = ibvs_youla.simulate(
+                    sc, "ff+fb", True, args.duration, settings=settings, arm=arm, camera=camera
+                )
                 walls.append(perf_counter() - t0)
                 results.append(result)
             median = int(np.argsort(walls)[len(walls) // 2])
@@ -92,19 +96,25 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             }
             c = cases[f"{sc.name}/{label}"]
             f = c["split"]["fraction"]
-            print(f"{sc.name:8} {label:9} {realtime[sc.name][label]:6.2f}x real time "
-                  f"(wall {wall:.3f} s for {args.duration:g} s); split: dynamics {f['dynamics']:.0%} "
-                  f"({c['split']['dynamics_us_per_step']:.1f} us/step), outer {f['outer']:.0%} "
-                  f"({c['split']['outer_us_per_frame']:.1f} us/frame), "
-                  f"joint control {f['joint_control']:.0%} "
-                  f"({c['split']['joint_control_us_per_step']:.1f} us/step)")
+            print(
+                f"{sc.name:8} {label:9} {realtime[sc.name][label]:6.2f}x real time "
+                f"(wall {wall:.3f} s for {args.duration:g} s); split: dynamics {f['dynamics']:.0%} "
+                f"({c['split']['dynamics_us_per_step']:.1f} us/step), outer {f['outer']:.0%} "
+                f"({c['split']['outer_us_per_frame']:.1f} us/frame), "
+                f"joint control {f['joint_control']:.0%} "
+                f"({c['split']['joint_control_us_per_step']:.1f} us/step)"
+            )
     report = {
         "benchmark": "simulation",
         "realtime_factor": realtime,
         "cases": cases,
-        "settings": {"duration_s": args.duration, "repeats": args.repeats, "controller": "ff+fb",
-                     "adaptive": True, "camera_rate_hz": {k: s.joint_rate_hz / s.camera_every
-                                                          for k, s in SETTINGS.items()}},
+        "settings": {
+            "duration_s": args.duration,
+            "repeats": args.repeats,
+            "controller": "ff+fb",
+            "adaptive": True,
+            "camera_rate_hz": {k: s.joint_rate_hz / s.camera_every for k, s in SETTINGS.items()},
+        },
         "machine": machine(),
     }
     write_json(args.json, report)

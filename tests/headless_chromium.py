@@ -40,8 +40,9 @@ def chromium() -> str | None:
     return "/usr/bin/chromium" if Path("/usr/bin/chromium").exists() else None
 
 
-def screenshot(url: str, path: Path, size: tuple[int, int] = (800, 600), budget_ms: int = 3000,
-               timeout: float = 120.0) -> np.ndarray:
+def screenshot(
+    url: str, path: Path, size: tuple[int, int] = (800, 600), budget_ms: int = 3000, timeout: float = 120.0
+) -> np.ndarray:
     """Load ``url``, let its scripts run for ``budget_ms`` of virtual time, return the RGB image (h, w, 3)."""
     binary = chromium()
     if binary is None:
@@ -49,8 +50,15 @@ def screenshot(url: str, path: Path, size: tuple[int, int] = (800, 600), budget_
     path = Path(path)
     path.unlink(missing_ok=True)
     with tempfile.TemporaryDirectory(prefix="chromium-profile-", ignore_cleanup_errors=True) as profile:
-        cmd = [binary, *FLAGS, f"--user-data-dir={profile}", f"--screenshot={path}",
-               f"--window-size={size[0]},{size[1]}", f"--virtual-time-budget={budget_ms}", url]
+        cmd = [
+            binary,
+            *FLAGS,
+            f"--user-data-dir={profile}",
+            f"--screenshot={path}",
+            f"--window-size={size[0]},{size[1]}",
+            f"--virtual-time-budget={budget_ms}",
+            url,
+        ]
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
         try:
             _, err = proc.communicate(timeout=timeout)

@@ -33,7 +33,6 @@ TABLE1 = {
 }
 
 
-
 @pytest.fixture(scope="module")
 def arm_reflected():
     return Arm.irb4600(actuator="reflected")
@@ -235,8 +234,10 @@ def six_joint_urdf(tmp_path, *, joint3="revolute", lower="-1", upper="1", veloci
         if i == 3:
             kind = joint3
             limit = f'<limit lower="{lower}" upper="{upper}" velocity="{velocity}" effort="{effort}"/>'
-        joints.append(f'<joint name="j{i}" type="{kind}"><parent link="link_{i - 1}"/>'
-                      f'<child link="link_{i}"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/>{limit}</joint>')
+        joints.append(
+            f'<joint name="j{i}" type="{kind}"><parent link="link_{i - 1}"/>'
+            f'<child link="link_{i}"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/>{limit}</joint>'
+        )
     path = tmp_path / "six.urdf"
     path.write_text(f'<robot name="six">{links}{"".join(joints)}</robot>')
     return path

@@ -31,12 +31,22 @@ def finite_positive(x):
 @pytest.mark.slow
 def test_outer_loop_benchmark_writes_its_keys(tmp_path):
     out = tmp_path / "outer.json"
-    report = load("bench_outer_loop").main(["--configs", "4", "--repeats", "1", "--rebuilds", "1",
-                                           "--json", str(out)])
+    report = load("bench_outer_loop").main(
+        ["--configs", "4", "--repeats", "1", "--rebuilds", "1", "--json", str(out)]
+    )
     saved = json.loads(out.read_text())
-    keys = ["update_median_us", "update_p95_us", "floor_median_us", "ratio_to_floor", "rebuild_ratio",
-            "features_median_us", "pose_ik_median_us", "jacobian_median_us", "svd_median_us",
-            "state_update_median_us"]
+    keys = [
+        "update_median_us",
+        "update_p95_us",
+        "floor_median_us",
+        "ratio_to_floor",
+        "rebuild_ratio",
+        "features_median_us",
+        "pose_ik_median_us",
+        "jacobian_median_us",
+        "svd_median_us",
+        "state_update_median_us",
+    ]
     for key in keys:
         assert finite_positive(saved[key]), key
     assert saved["ratio_to_floor"] == pytest.approx(saved["update_median_us"] / saved["floor_median_us"])

@@ -25,8 +25,15 @@ def random_points(rng, n=20, z=(0.5, 25.0)):
 @pytest.fixture
 def skewed():
     """A camera with skew and an off-centre principal point, to exercise Eq. (6) in full."""
-    return StereoCamera(focal_length=2.8e-3, baseline=0.12, sensor_width=5.23e-3, sensor_height=2.94e-3,
-                        pixel_pitch=4e-6, skew=3.5, principal_point=(650.0, 355.0))
+    return StereoCamera(
+        focal_length=2.8e-3,
+        baseline=0.12,
+        sensor_width=5.23e-3,
+        sensor_height=2.94e-3,
+        pixel_pitch=4e-6,
+        skew=3.5,
+        principal_point=(650.0, 355.0),
+    )
 
 
 # ----------------------------------------------------------------------------------------- presets
@@ -69,9 +76,16 @@ def test_bad_preset_arguments(kwargs, name):
 
 @pytest.mark.parametrize(
     ("field", "value"),
-    [("focal_length", 0.0), ("baseline", -0.12), ("pixel_pitch", np.nan), ("frame_rate", np.inf),
-     ("depth_range", (5.0, 1.0)), ("depth_range", (1.0,)), ("principal_point", (1.0, np.nan)),
-     ("skew", np.nan)],
+    [
+        ("focal_length", 0.0),
+        ("baseline", -0.12),
+        ("pixel_pitch", np.nan),
+        ("frame_rate", np.inf),
+        ("depth_range", (5.0, 1.0)),
+        ("depth_range", (1.0,)),
+        ("principal_point", (1.0, np.nan)),
+        ("skew", np.nan),
+    ],
 )
 def test_bad_camera_parameters(field, value):
     kwargs = dict(focal_length=2.8e-3, baseline=0.12, sensor_width=5e-3, sensor_height=3e-3, pixel_pitch=4e-6)
@@ -86,8 +100,9 @@ def test_projection_matches_eq_9_to_11_with_errata_12():
     cam = StereoCamera.zed2()
     F, b = cam.focal_length, cam.baseline
     p = cam.project([[0.3, -0.2, 2.0]])
-    assert p == pytest.approx(np.array([[F * (0.3 - b / 2) / 2, F * (0.3 + b / 2) / 2, F * -0.2 / 2]]),
-                              rel=1e-15)
+    assert p == pytest.approx(
+        np.array([[F * (0.3 - b / 2) / 2, F * (0.3 + b / 2) / 2, F * -0.2 / 2]]), rel=1e-15
+    )
     assert p[0, 1] - p[0, 0] == pytest.approx(F * b / 2.0, rel=1e-12)  # disparity F b / Z > 0
 
 
@@ -109,8 +124,11 @@ def test_virtual_points_round_trip_behind_the_camera():
 
 @settings(max_examples=200, deadline=None)
 @given(
-    x=st.floats(-50, 50), y=st.floats(-50, 50), z=st.floats(0.01, 1e3),
-    mode=st.sampled_from(["HD2K", "HD720", "VGA"]), preset=st.sampled_from(["paper", "zed2"]),
+    x=st.floats(-50, 50),
+    y=st.floats(-50, 50),
+    z=st.floats(0.01, 1e3),
+    mode=st.sampled_from(["HD2K", "HD720", "VGA"]),
+    preset=st.sampled_from(["paper", "zed2"]),
 )
 def test_round_trip_property(x, y, z, mode, preset):
     cam = StereoCamera.zed2(preset, mode)
@@ -173,8 +191,9 @@ def test_pinhole_interaction_matrix_matches_finite_differences_and_classical_for
     assert np.abs(L - L_fd).max() <= 1e-6 * np.abs(L).max()
     X, Y, Z = P[0]
     x, y = X / Z, Y / Z  # Chaumette & Hutchinson (2006), normalised coordinates, times F
-    classical = cam.focal_length * np.array([[-1 / Z, 0, x / Z, x * y, -(1 + x * x), y],
-                                             [0, -1 / Z, y / Z, 1 + y * y, -x * y, -x]])
+    classical = cam.focal_length * np.array(
+        [[-1 / Z, 0, x / Z, x * y, -(1 + x * x), y], [0, -1 / Z, y / Z, 1 + y * y, -x * y, -x]]
+    )
     assert L[:2] == pytest.approx(classical, rel=1e-12, abs=1e-18)
 
 
@@ -182,13 +201,19 @@ def test_pinhole_interaction_matrix_matches_finite_differences_and_classical_for
 def test_visibility_flags():
     cam = StereoCamera.zed2()
     tan_h = np.tan(cam.field_of_view[0] / 2)
-    P = np.array([
-        [0.0, 0.0, 2.0],  # centre: visible
-        [0.0, 0.0, 0.3],  # too close for 0.5-25 m
-        [0.0, 0.0, -2.0],  # behind
-        [1.998 * tan_h, 0.0, 2.0],  # just inside the centre FOV edge: left lens (at +b/2) sees it, right not
-        [0.0, 0.0, 30.0],  # too far
-    ])
+    P = np.array(
+        [
+            [0.0, 0.0, 2.0],  # centre: visible
+            [0.0, 0.0, 0.3],  # too close for 0.5-25 m
+            [0.0, 0.0, -2.0],  # behind
+            [
+                1.998 * tan_h,
+                0.0,
+                2.0,
+            ],  # just inside the centre FOV edge: left lens (at +b/2) sees it, right not
+            [0.0, 0.0, 30.0],  # too far
+        ]
+    )
     vis = cam.visibility(P)
     assert isinstance(vis, Visibility)
     assert vis.in_front.tolist() == [True, True, False, True, True]

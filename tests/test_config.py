@@ -11,9 +11,8 @@ import pytest
 from ibvs_youla import scenarios
 from ibvs_youla.config import RunConfig, load_config, parse_config
 from ibvs_youla.exceptions import ConfigError, IbvsYoulaError
-from ibvs_youla.model.camera import StereoCamera
+from ibvs_youla.model.camera import StereoCamera, default_camera
 from ibvs_youla.simulation.settings import SimulationSettings
-from ibvs_youla.model.camera import default_camera
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))

@@ -21,8 +21,6 @@ VIEW_MARKERS_O = np.array([[3.0, -0.3, 1.3], [3.0, 0.4, 1.5], [3.3, 0.0, 1.9]])
 Q_VIEW = np.array([0.05, 0.1, -0.1, 0.3, 0.4, -0.2])  # [rad] VIEW markers visible; no singularity
 
 
-
-
 def random_q(rng, arm, n, margin=0.2):
     lo, hi = np.maximum(arm.q_min, -np.pi) + margin, np.minimum(arm.q_max, np.pi) - margin
     return rng.uniform(lo, hi, (n, 6))

@@ -38,8 +38,6 @@ from ibvs_youla.simulation.plant import ArmPlant
 SEED = 20240611
 
 
-
-
 def random_q(arm, rng, n):
     return arm.q_min + (arm.q_max - arm.q_min) * rng.random((n, 6))
 
@@ -124,8 +122,9 @@ def test_scalar_closed_form_matches_the_matrix_form(arm):
     for q in [*singular, *random_q(arm, rng, 500)]:
         T_O_E = arm.flange_pose(q)
         q_ref = rng.uniform(-3, 3, 6)
-        np.testing.assert_allclose(closed_form_branches(p, T_O_E, q_ref), reference_branches(p, T_O_E, q_ref),
-                                   rtol=0, atol=1e-12)
+        np.testing.assert_allclose(
+            closed_form_branches(p, T_O_E, q_ref), reference_branches(p, T_O_E, q_ref), rtol=0, atol=1e-12
+        )
 
 
 def test_select_branches_keeps_its_duplicate_rule():
@@ -135,8 +134,9 @@ def test_select_branches_keeps_its_duplicate_rule():
         rows = rng.uniform(-math.pi, math.pi, (8, 6))
         rows[rng.integers(0, 8, 3)] = rows[rng.integers(0, 8)] + rng.choice([0.0, 1e-7, 2 * math.pi], (3, 6))
         q_near = rng.uniform(-4, 4, 6)
-        np.testing.assert_array_equal(select_branches(rows, q_min, q_max, q_near),
-                                      reference_select(rows, q_min, q_max, q_near))
+        np.testing.assert_array_equal(
+            select_branches(rows, q_min, q_max, q_near), reference_select(rows, q_min, q_max, q_near)
+        )
 
 
 def test_nearest_branch_is_the_first_selected_branch(arm):
@@ -167,16 +167,18 @@ def test_ik_nearest_equals_ik_first_row(arm):
     for i, q in enumerate(random_q(arm, rng, 1000)):
         T_O_C = projected(arm.camera_pose(q))
         q_near = q + rng.normal(0.0, (0.01, 0.3, 2.0)[i % 3], 6)
-        np.testing.assert_allclose(arm.ik_nearest(T_O_C, q_near), arm.ik(T_O_C, q_near=q_near)[0],
-                                   rtol=0, atol=1e-12)
+        np.testing.assert_allclose(
+            arm.ik_nearest(T_O_C, q_near), arm.ik(T_O_C, q_near=q_near)[0], rtol=0, atol=1e-12
+        )
 
 
 def test_ik_nearest_at_singular_and_unreachable_poses(arm):
     for q in (np.zeros(6), np.radians([30.0, 10.0, -20.0, 50.0, 0.0, -70.0])):  # wrist singular (q5 = 0)
         T_O_C = projected(arm.camera_pose(q))
         for q_near in (q, q + 0.2):
-            np.testing.assert_allclose(arm.ik_nearest(T_O_C, q_near), arm.ik(T_O_C, q_near=q_near)[0],
-                                       rtol=0, atol=1e-12)
+            np.testing.assert_allclose(
+                arm.ik_nearest(T_O_C, q_near), arm.ik(T_O_C, q_near=q_near)[0], rtol=0, atol=1e-12
+            )
     far = arm.camera_pose(np.zeros(6))
     far[:3, 3] = [5.0, 0.0, 1.0]  # out of reach
     with pytest.raises(UnreachablePoseError):
@@ -199,8 +201,15 @@ def test_spherical_wrist_parameters_unchanged():
 
 # --------------------------------------------------------------------------- camera and stereo P3P
 # Skew and an off-centre principal point, as in tests/test_camera.py: the field of view is not symmetric.
-SKEWED = StereoCamera(focal_length=2.8e-3, baseline=0.12, sensor_width=5.23e-3, sensor_height=2.94e-3,
-                      pixel_pitch=4e-6, skew=3.5, principal_point=(650.0, 355.0))
+SKEWED = StereoCamera(
+    focal_length=2.8e-3,
+    baseline=0.12,
+    sensor_width=5.23e-3,
+    sensor_height=2.94e-3,
+    pixel_pitch=4e-6,
+    skew=3.5,
+    principal_point=(650.0, 355.0),
+)
 
 
 def reference_visibility(cam, P):
@@ -221,8 +230,15 @@ def reference_visibility(cam, P):
 
 
 @pytest.mark.parametrize(
-    "cam", [StereoCamera.zed2(), StereoCamera.zed2("zed2", "VGA"), PinholeCamera.zed2(), SKEWED,
-            PinholeCamera.normalized()])
+    "cam",
+    [
+        StereoCamera.zed2(),
+        StereoCamera.zed2("zed2", "VGA"),
+        PinholeCamera.zed2(),
+        SKEWED,
+        PinholeCamera.normalized(),
+    ],
+)
 def test_visibility_equals_the_array_formulas(cam):
     rng = np.random.default_rng(SEED + 4)
     n_visible = 0
@@ -368,8 +384,10 @@ def literal_gains(policy, s, size):
     return g
 
 
-@pytest.mark.parametrize("policy", [SingularValuePolicy(), SingularValuePolicy("truncate", 0.05),
-                                    SingularValuePolicy("damped", 0.0)])
+@pytest.mark.parametrize(
+    "policy",
+    [SingularValuePolicy(), SingularValuePolicy("truncate", 0.05), SingularValuePolicy("damped", 0.0)],
+)
 def test_gains_and_pseudo_inverse_equal_the_array_formulas(policy):
     rng = np.random.default_rng(SEED + 10)
     for rank in (6, 5, 4):
@@ -465,8 +483,9 @@ def test_packed_rk4_equals_the_stage_by_stage_formula(arm):
         np.testing.assert_allclose(x1[6:], dq1, rtol=0, atol=1e-12 * np.abs(dq1).max())
 
 
-@pytest.mark.parametrize(("saturate_torque", "saturate_speed"),
-                         [(False, False), (True, True), (False, True), (True, False)])
+@pytest.mark.parametrize(
+    ("saturate_torque", "saturate_speed"), [(False, False), (True, True), (False, True), (True, False)]
+)
 def test_plant_step_equals_the_stage_by_stage_formula_with_saturation(arm, saturate_torque, saturate_speed):
     d = np.full(6, np.radians(1.0))
     q0 = scenarios.paper(2).q_start

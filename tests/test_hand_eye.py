@@ -128,5 +128,6 @@ def test_simulated_run_needs_markers_in_view():
 
     behind = np.array([[-0.5, 0.0, 0.0], [0.0, 0.0, 0.5], [2.0, -2.0, 0.0]])  # paper's markers, ERRATA 13
     with pytest.raises(CalibrationError, match="in view"):
-        simulate_hand_eye_run(Arm.irb4600(), StereoCamera.zed2(), behind, np.zeros(6), 5,
-                              np.random.default_rng(0), max_tries=50)
+        simulate_hand_eye_run(
+            Arm.irb4600(), StereoCamera.zed2(), behind, np.zeros(6), 5, np.random.default_rng(0), max_tries=50
+        )

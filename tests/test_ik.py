@@ -18,7 +18,6 @@ SEED = 1729
 POSE_TOL = 1e-9  # max |FK(q) - T| (rotation entries and metres)
 
 
-
 @pytest.fixture(scope="module")
 def ur5():
     return Arm.from_urdf(example_robot_data_urdf("ur_description/urdf/ur5_robot.urdf"), camera_frame="tool0")

@@ -57,8 +57,10 @@ def test_interpolation_conditions(tau):
     T = InnerLoopDesign(tau).complementary_sensitivity()
     num, den = np.asarray(T.num[0][0], float), np.asarray(T.den[0][0], float)
     assert np.polyval(num, 0.0) / np.polyval(den, 0.0) == pytest.approx(1.0, abs=1e-15)  # Eq. (38)
-    dT0 = (np.polyval(np.polyder(num), 0.0) * np.polyval(den, 0.0)
-           - np.polyval(num, 0.0) * np.polyval(np.polyder(den), 0.0)) / np.polyval(den, 0.0) ** 2
+    dT0 = (
+        np.polyval(np.polyder(num), 0.0) * np.polyval(den, 0.0)
+        - np.polyval(num, 0.0) * np.polyval(np.polyder(den), 0.0)
+    ) / np.polyval(den, 0.0) ** 2
     assert dT0 == pytest.approx(0.0, abs=1e-15)  # Eq. (39)
 
 

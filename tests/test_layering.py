@@ -14,8 +14,6 @@ from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
-import pytest
-
 ROOT = "ibvs_youla"
 SRC = Path(__file__).resolve().parents[1] / "src" / ROOT
 
@@ -31,11 +29,6 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("analysis",),
     ("viz", "config", "cli"),
 )
-
-# Known violations, being removed by the servo-loop rebuild (they sit in files it rewrites):
-# (importer, imported), each an upward import and/or an edge of a cycle. Delete an entry when its
-# import is gone: the test fails while a listed import is no longer a violation, so this set only shrinks.
-PENDING: frozenset[tuple[str, str]] = frozenset()
 
 
 @dataclass(frozen=True)
@@ -227,22 +220,11 @@ def test_every_module_has_a_layer():
 
 
 def test_no_import_cycle():
-    graph = _graph([i for i in IMPORTS if (i.importer, i.imported) not in PENDING])
+    graph = _graph(IMPORTS)
     cycles = [" -> ".join(_shortest_cycle(graph, c)) for c in _components(graph)]
     assert cycles == [], "import cycles:\n" + "\n".join(cycles)
 
 
 def test_no_module_imports_a_higher_layer():
-    upward = [str(i) for i in IMPORTS if _upward(i) and (i.importer, i.imported) not in PENDING]
+    upward = [str(i) for i in IMPORTS if _upward(i)]
     assert upward == [], "imports of a higher layer:\n" + "\n".join(upward)
-
-
-@pytest.mark.parametrize("entry", sorted(PENDING), ids=" -> ".join)
-def test_pending_entries_are_still_violations(entry):
-    """PENDING may only shrink: an entry whose import is gone, or no longer wrong, must be deleted."""
-    imports = [i for i in IMPORTS if (i.importer, i.imported) == entry]
-    assert imports, f"{entry[0]} no longer imports {entry[1]}: delete it from PENDING"
-    in_cycle = any(set(entry) <= component for component in _components(_graph(IMPORTS)))
-    assert any(_upward(i) for i in imports) or in_cycle, (
-        f"{entry} is no longer a violation: delete it from PENDING"
-    )

@@ -38,16 +38,33 @@ def reference():
 def test_paper_controller_matches_the_pre_rebuild_loop(case, reference, arm):
     make = SimulationSettings.paper if case["paper_settings"] else SimulationSettings
     settings = make(**case["settings"])
-    result = iy.simulate(scenarios.get(case["scenario"]), case["controller"], case["adaptive"],
-                         case["duration"], settings=settings, arm=arm)
+    result = iy.simulate(
+        scenarios.get(case["scenario"]),
+        case["controller"],
+        case["adaptive"],
+        case["duration"],
+        settings=settings,
+        arm=arm,
+    )
     name = case["name"]
     assert result.metadata["status"] == case["status"]
     assert len(result.update_time) == int(reference[f"{name}/n_updates"])
     np.testing.assert_array_equal(result.t, reference[f"{name}/t"])
     np.testing.assert_array_equal(result.visible, reference[f"{name}/visible"])
-    for signal in ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau", "features", "feature_error",
-                   "camera_pose"):
+    for signal in (
+        "q",
+        "q_true",
+        "dq",
+        "q_ref",
+        "q_ff",
+        "q_fb",
+        "tau",
+        "features",
+        "feature_error",
+        "camera_pose",
+    ):
         expected = reference[f"{name}/{signal}"]
         scale = max(np.abs(expected).max(), 1e-300)
-        np.testing.assert_allclose(getattr(result, signal), expected, rtol=0, atol=RTOL * scale,
-                                   err_msg=f"{name}: {signal}")
+        np.testing.assert_allclose(
+            getattr(result, signal), expected, rtol=0, atol=RTOL * scale, err_msg=f"{name}: {signal}"
+        )

@@ -15,7 +15,6 @@ D = np.full(6, np.radians(1.0))  # scenario 2's disturbance (ERRATA 14)
 Q0 = np.radians([42.40, 21.20, 4.58, -2.86, 66.46, -42.40])  # Table 1 scenario 2 start
 
 
-
 def test_encoders_do_not_see_the_joint_offset_and_the_camera_moves_with_the_true_angles(arm):
     plant = ArmPlant(arm, D, q_encoder=Q0)
     np.testing.assert_allclose(plant.q_encoder, Q0, rtol=0, atol=1e-15)  # (Q0 + d) - d: round-off only

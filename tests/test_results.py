@@ -175,7 +175,15 @@ def test_a_file_saved_in_format_1_loads_with_every_signal():
     res = SimulationResult.load(path)
     for name in ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau"):
         np.testing.assert_array_equal(getattr(res, name), stored[name], err_msg=name)
-    for name in ("t", "features", "feature_target", "camera_pose", "camera_pose_target", "visible", "update_time"):
+    for name in (
+        "t",
+        "features",
+        "feature_target",
+        "camera_pose",
+        "camera_pose_target",
+        "visible",
+        "update_time",
+    ):
         np.testing.assert_array_equal(getattr(res, name), stored[name], err_msg=name)
     np.testing.assert_array_equal(res.feature_error, stored["feature_error"])
     assert len(res) == 11 and res.frame_t.shape == (0,) and res.update_time.shape == (6,)

@@ -88,10 +88,13 @@ def test_sensor_rejects_too_few_markers_for_its_camera():
     assert MarkerSensor(StereoCamera.zed2(), MARKERS_4[:3]).n_points == 3
 
 
-@pytest.mark.parametrize(("camera", "n_points", "per_point"),
-                         [(PinholeCamera.normalized(), 4, 2), (StereoCamera.zed2(), 3, 3)])
+@pytest.mark.parametrize(
+    ("camera", "n_points", "per_point"), [(PinholeCamera.normalized(), 4, 2), (StereoCamera.zed2(), 3, 3)]
+)
 def test_four_monocular_and_three_stereo_points_run_through_the_loop(camera, n_points, per_point):
-    scenario = iy.Scenario.free_camera(_pose([0.0, 0.0, 0.0]), _pose([0.0, 0.0, 0.0], 0.3), MARKERS_4[:n_points])
+    scenario = iy.Scenario.free_camera(
+        _pose([0.0, 0.0, 0.0]), _pose([0.0, 0.0, 0.0], 0.3), MARKERS_4[:n_points]
+    )
     ctrl = ConstantTwist([0.01, 0.0, 0.0, 0.0, 0.0, 0.1])
     result = iy.simulate(scenario, ctrl, duration=0.2, plant="free-camera", camera=camera)
     assert result.features.shape == (21, per_point * n_points) and result.visible.shape == (21, n_points)
@@ -107,8 +110,9 @@ def test_four_monocular_and_three_stereo_points_run_through_the_loop(camera, n_p
 def test_an_image_based_controller_written_by_a_user_converges_on_the_free_camera():
     target = _pose([0.0, 0.0, 0.0])
     scenario = iy.Scenario.free_camera(_pose([0.05, -0.03, -0.1], 0.15), target, MARKERS_4)
-    result = iy.simulate(scenario, IbvsAtTarget(), duration=5.0, plant="free-camera",
-                         camera=PinholeCamera.normalized())
+    result = iy.simulate(
+        scenario, IbvsAtTarget(), duration=5.0, plant="free-camera", camera=PinholeCamera.normalized()
+    )
     e0, e1 = (np.linalg.norm(result.feature_error[i]) for i in (0, -1))
     mm, deg = result.final_pose_error()
     assert e1 < 1e-4 * e0 and mm < 1e-2 and deg < 1e-3  # lambda = 2 1/s over 5 s: e^-10 ~ 4.5e-5
@@ -148,8 +152,11 @@ def test_a_twist_command_reaches_every_plant_through_the_actuation_chain(plant, 
     sc = dataclasses.replace(scenarios.physical(2), joint_offset=None)
     result = iy.simulate(sc, ConstantTwist(twist), duration=0.2, plant=plant, arm=arm)
     assert result.status == "complete"
-    chain = {"free-camera": ["camera_twist"], "kinematic": ["camera_twist", "dq_ref"],
-             "dynamic": ["camera_twist", "dq_ref", "q_ref", "tau"]}[plant]
+    chain = {
+        "free-camera": ["camera_twist"],
+        "kinematic": ["camera_twist", "dq_ref"],
+        "dynamic": ["camera_twist", "dq_ref", "q_ref", "tau"],
+    }[plant]
     assert [n for n in ("camera_twist", "dq_ref", "q_ref", "tau") if n in result.signals] == chain
     expected = result.camera_pose[0] @ exp_twist(twist * 0.2)
     tol = {"free-camera": 1e-12, "kinematic": 2e-7, "dynamic": 1e-4}[plant]
@@ -174,8 +181,11 @@ def test_controller_name_and_object_errors():
 
 
 def test_the_paper_controller_needs_a_stereo_camera(arm):
-    sc = iy.Scenario(scenarios.physical(1).q_start, scenarios.physical(1).q_target,
-                     np.vstack([scenarios.physical(1).markers_O, [3.9, -0.3, 1.4]]))
+    sc = iy.Scenario(
+        scenarios.physical(1).q_start,
+        scenarios.physical(1).q_target,
+        np.vstack([scenarios.physical(1).markers_O, [3.9, -0.3, 1.4]]),
+    )
     with pytest.raises(InvalidParameterError, match="StereoCamera"):
         iy.simulate(sc, "ff+fb", duration=0.01, arm=arm, camera=PinholeCamera.zed2())
 
@@ -192,23 +202,28 @@ def test_registry_adds_a_controller_in_one_place():
 # --------------------------------------------------------------------------- truth and belief
 def test_the_controller_gets_its_beliefs_and_the_sensor_keeps_the_truth(arm):
     sc = scenarios.physical(1)
-    wrong_markers = sc.markers_O + [0.01, -0.02, 0.0]
+    wrong_markers = sc.markers_O + np.array([0.01, -0.02, 0.0])
     wrong_camera = StereoCamera(**{**StereoCamera.zed2(mode="VGA").__dict__, "focal_length": 2.9e-3})
     ctrl = ConstantTwist()
-    result = iy.simulate(sc, ctrl, duration=0.02, arm=arm,
-                         beliefs=iy.Beliefs(camera=wrong_camera, markers_O=wrong_markers))
+    result = iy.simulate(
+        sc, ctrl, duration=0.02, arm=arm, beliefs=iy.Beliefs(camera=wrong_camera, markers_O=wrong_markers)
+    )
     np.testing.assert_array_equal(ctrl.task.markers_O, wrong_markers)
     assert ctrl.task.camera.focal_length == 2.9e-3 and ctrl.task.arm is not None
     truth = MarkerSensor(StereoCamera.zed2(mode="VGA"), sc.markers_O)
-    np.testing.assert_array_equal(result.features[0], truth.measure(arm.camera_pose(sc.q_start), 0.0).features)
+    np.testing.assert_array_equal(
+        result.features[0], truth.measure(arm.camera_pose(sc.q_start), 0.0).features
+    )
     np.testing.assert_array_equal(ctrl.task.feature_target, truth.features_at(arm.camera_pose(sc.q_target)))
     assert result.metadata["spec"]["beliefs"]["markers_O"] == wrong_markers.tolist()
 
 
 def test_a_wrong_marker_belief_changes_the_paper_controllers_run(arm):
     sc = scenarios.physical(2)
-    runs = [iy.simulate(sc, "ff+fb", duration=0.1, arm=arm, beliefs=b)
-            for b in (None, iy.Beliefs(markers_O=sc.markers_O + [0.005, 0.0, 0.0]))]
+    runs = [
+        iy.simulate(sc, "ff+fb", duration=0.1, arm=arm, beliefs=b)
+        for b in (None, iy.Beliefs(markers_O=sc.markers_O + np.array([0.005, 0.0, 0.0])))
+    ]
     assert np.abs(runs[0].q_fb[-1] - runs[1].q_fb[-1]).max() > 1e-6  # the belief reaches Eq. (62)
     np.testing.assert_array_equal(runs[0].feature_target, runs[1].feature_target)
 
@@ -216,8 +231,13 @@ def test_a_wrong_marker_belief_changes_the_paper_controllers_run(arm):
 # --------------------------------------------------------------------------- statuses
 def test_markers_behind_the_camera_end_the_run_with_a_status():
     scenario = iy.Scenario.free_camera(np.eye(4), np.eye(4), MARKERS_4)
-    result = iy.simulate(scenario, ConstantTwist([0.0, 0.0, 1.0, 0.0, 0.0, 0.0]), duration=3.0,
-                         plant="free-camera", camera=PinholeCamera.normalized())
+    result = iy.simulate(
+        scenario,
+        ConstantTwist([0.0, 0.0, 1.0, 0.0, 0.0, 0.0]),
+        duration=3.0,
+        plant="free-camera",
+        camera=PinholeCamera.normalized(),
+    )
     assert result.status == "markers_lost" and "depth" in result.metadata["error"]
     assert result.t[-1] == pytest.approx(1.89, abs=1e-9)  # the nearest marker (Z = 1.9 m) is passed at 1.9 s
 
@@ -237,6 +257,21 @@ def test_cli_runs_the_paper_controller_on_the_kinematic_arm(capsys, tmp_path):
     assert summary["peak_torque_ratio"] is None and len(summary["peak_joint_speed_ratio"]) == 6
     meta = iy.SimulationResult.load(tmp_path / "k" / "result.npz").metadata
     assert (meta["plant"], meta["controller"]) == ("kinematic", "ff+fb")
-    assert main(["simulate", "--scenario", "physical-2", "--plant", "free-camera", "--duration", "0.01",
-                 "--out", str(tmp_path / "f"), "--no-plots"]) == 1  # joint commands cannot drive a bare camera
+    assert (
+        main(
+            [
+                "simulate",
+                "--scenario",
+                "physical-2",
+                "--plant",
+                "free-camera",
+                "--duration",
+                "0.01",
+                "--out",
+                str(tmp_path / "f"),
+                "--no-plots",
+            ]
+        )
+        == 1
+    )  # joint commands cannot drive a bare camera
     assert "'free-camera' plant accepts camera_twist" in capsys.readouterr().err

@@ -86,17 +86,23 @@ def test_free_camera_integrates_a_constant_twist_exactly():
 def test_free_camera_run_through_simulate_ends_on_the_closed_form_pose():
     twist = np.array([0.1, 0.2, -0.05, 0.0, 0.0, -0.4])
     target = start_pose() @ screw_pose(twist[:3], twist[5], 1.0)
-    scenario = iy.Scenario.free_camera(start_pose(), target, MARKERS_4 + [0.3, -0.2, 0.0])
-    result = iy.simulate(scenario, ConstantTwist(twist), duration=1.0, plant="free-camera",
-                         camera=iy.PinholeCamera.normalized())
+    scenario = iy.Scenario.free_camera(start_pose(), target, MARKERS_4 + np.array([0.3, -0.2, 0.0]))
+    result = iy.simulate(
+        scenario,
+        ConstantTwist(twist),
+        duration=1.0,
+        plant="free-camera",
+        camera=iy.PinholeCamera.normalized(),
+    )
     assert result.status == "complete" and result.metadata["plant"] == "free-camera"
     assert len(result) == 101  # 100 Hz camera = control rate on the free camera: 1 s -> ticks 0..100
     np.testing.assert_allclose(result.camera_pose[-1], target, rtol=0, atol=1e-12)
     mm, deg = result.final_pose_error()
     assert mm < 1e-9 and deg < 1e-9
     np.testing.assert_array_equal(result.camera_twist, np.broadcast_to(twist, (101, 6)))
-    np.testing.assert_allclose(result.camera_pose[50], start_pose() @ screw_pose(twist[:3], twist[5], 0.5),
-                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        result.camera_pose[50], start_pose() @ screw_pose(twist[:3], twist[5], 0.5), rtol=0, atol=1e-12
+    )
 
 
 def test_free_camera_rejects_a_non_finite_twist():
@@ -114,8 +120,9 @@ def test_kinematic_arm_follows_a_joint_velocity_exactly(arm):
     result = iy.simulate(sc, ConstantJointVelocity(dq), duration=0.5, plant="kinematic", arm=arm)
     assert result.status == "complete"
     np.testing.assert_allclose(result.q, sc.q_start + result.t[:, None] * dq, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(result.q_true - result.q, np.broadcast_to(sc.joint_offset, result.q.shape),
-                               rtol=0, atol=1e-15)
+    np.testing.assert_allclose(
+        result.q_true - result.q, np.broadcast_to(sc.joint_offset, result.q.shape), rtol=0, atol=1e-15
+    )
     np.testing.assert_allclose(result.dq[1:], np.broadcast_to(dq, (len(result) - 1, 6)), rtol=0, atol=0)
     np.testing.assert_allclose(result.camera_pose[-1], arm.camera_pose(result.q_true[-1]), rtol=0, atol=1e-15)
 
@@ -131,10 +138,15 @@ def test_kinematic_arm_follows_a_position_step_through_t_in(arm):
     settings = iy.SimulationSettings(tau_in=0.01)
     result = iy.simulate(sc, PositionStep(step), duration=0.1, plant="kinematic", arm=arm, settings=settings)
     for t in (0.005, 0.02, 0.05):  # [s]: rising, overshooting (peak 1 + e^-2 at t = 2 tau), settling
-        k = int(round(t / 1e-3))
+        k = round(t / 1e-3)
         assert result.t[k] == pytest.approx(t, abs=1e-12)
-        np.testing.assert_allclose(result.q[k] - sc.q_start, step * step_response(t / 0.01), rtol=1e-12,
-                                   atol=1e-15, err_msg=f"t = {t} s")
+        np.testing.assert_allclose(
+            result.q[k] - sc.q_start,
+            step * step_response(t / 0.01),
+            rtol=1e-12,
+            atol=1e-15,
+            err_msg=f"t = {t} s",
+        )
     assert step_response(2.0) == pytest.approx(1.0 + np.exp(-2.0), rel=1e-15)
     # the speed is the exact derivative of the step response: d/dx [...] = e^-x x (3 - x) / tau
     x = 0.02 / 0.01

@@ -134,8 +134,11 @@ def test_estimate_pose_rejects_bad_arrays():
     bad[1, 2] = np.nan
     with pytest.raises(InvalidArrayError, match=r"p_image: received non-finite entries at \(1, 2\)"):
         estimate_pose(cam, bad, MARKERS_O)
-    with pytest.raises(InvalidArrayError, match=r"p_image: received an array of shape \(2, 3\); "
-                                                r"expected shape \(3, 3\) or \(9,\)"):
+    with pytest.raises(
+        InvalidArrayError,
+        match=r"p_image: received an array of shape \(2, 3\); "
+        r"expected shape \(3, 3\) or \(9,\)",
+    ):
         estimate_pose(cam, p[:2], MARKERS_O)
     P_bad = MARKERS_O.copy()
     P_bad[0, 0] = np.inf

@@ -32,8 +32,15 @@ CAMERAS = {
     "paper": StereoCamera.zed2(),
     "zed2-HD1080": StereoCamera.zed2("zed2", "HD1080"),
     # off-centre principal point and skew: corners must follow K (Eq. 6), not a centred-sensor shortcut
-    "skewed": StereoCamera(focal_length=3e-3, sensor_width=4e-3, sensor_height=3e-3, pixel_pitch=5e-6,
-                           skew=12.0, principal_point=(350.0, 260.0), baseline=0.1),
+    "skewed": StereoCamera(
+        focal_length=3e-3,
+        sensor_width=4e-3,
+        sensor_height=3e-3,
+        pixel_pitch=5e-6,
+        skew=12.0,
+        principal_point=(350.0, 260.0),
+        baseline=0.1,
+    ),
 }
 
 
@@ -208,8 +215,11 @@ def _straight_run(arm: Arm, sc: scenarios.Scenario, duration: float) -> Simulati
     q = (1 - s) * sc.q_start + s * sc.q_target
     n, zeros = len(t), np.zeros((len(t), 6))
     return SimulationResult(
-        t=t, camera_pose=np.array([arm.camera_pose(qi) for qi in q]),
-        camera_pose_target=arm.camera_pose(sc.q_target), features=np.zeros((n, 9)), feature_target=np.zeros(9),
+        t=t,
+        camera_pose=np.array([arm.camera_pose(qi) for qi in q]),
+        camera_pose_target=arm.camera_pose(sc.q_target),
+        features=np.zeros((n, 9)),
+        feature_target=np.zeros(9),
         visible=np.ones((n, 3), bool),
         signals={"q": q, "q_true": q, "dq": zeros, "q_ref": q, "q_ff": zeros, "q_fb": q, "tau": zeros},
         metadata={"markers_O": sc.markers_O.tolist()},

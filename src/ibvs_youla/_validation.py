@@ -55,8 +55,10 @@ def as_array(value: Any, name: str, shape: Shape | None = None, *, finite: bool 
     Raises:
         InvalidArrayError: wrong shape, non-numeric content, or non-finite entries.
     """
-    if type(value) is np.ndarray and value.dtype == _FLOAT64 and (
-        shape is None or value.shape == shape or _fits(value.shape, shape)
+    if (
+        type(value) is np.ndarray
+        and value.dtype == _FLOAT64
+        and (shape is None or value.shape == shape or _fits(value.shape, shape))
     ):
         if not finite:
             return value
@@ -95,9 +97,12 @@ def as_pose(value: Any, name: str) -> np.ndarray:
     (a, b, c, _), (d, e, f, _), (g, h, i, _), last = T.tolist()
     if last == _LAST_ROW:  # fast path: R^T R - I and det R in scalar arithmetic
         err = max(  # columns of R: unit length, mutually orthogonal
-            abs(a * a + d * d + g * g - 1.0), abs(b * b + e * e + h * h - 1.0),
-            abs(c * c + f * f + i * i - 1.0), abs(a * b + d * e + g * h),
-            abs(a * c + d * f + g * i), abs(b * c + e * f + h * i),
+            abs(a * a + d * d + g * g - 1.0),
+            abs(b * b + e * e + h * h - 1.0),
+            abs(c * c + f * f + i * i - 1.0),
+            abs(a * b + d * e + g * h),
+            abs(a * c + d * f + g * i),
+            abs(b * c + e * f + h * i),
         )
         det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
         if err <= 0.5 * _RIGID_TOL and abs(det - 1.0) <= 0.5 * _RIGID_TOL:  # well inside the bound

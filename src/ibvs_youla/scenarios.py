@@ -133,7 +133,8 @@ class Scenario:
             set_(self, "T_O_C_target", _frozen(as_pose(self.T_O_C_target, "T_O_C_target")))
         else:
             raise InvalidParameterError(
-                "scenario", f"q_start/q_target given: {joints}, T_O_C_start/T_O_C_target given: {poses}",
+                "scenario",
+                f"q_start/q_target given: {joints}, T_O_C_start/T_O_C_target given: {poses}",
                 "both joint configurations (an arm scenario) or both camera poses (a free-camera scenario)",
             )
         offset = np.zeros(6) if self.joint_offset is None else self.joint_offset
@@ -161,8 +162,12 @@ class Scenario:
     ) -> Scenario:
         """A camera with no arm: start and target poses (4, 4) and markers (n, 3) in the base frame [m]."""
         return cls(
-            markers_O=markers_O, name=name, virtual_points=virtual_points, description=description,
-            T_O_C_start=T_O_C_start, T_O_C_target=T_O_C_target,
+            markers_O=markers_O,
+            name=name,
+            virtual_points=virtual_points,
+            description=description,
+            T_O_C_start=T_O_C_start,
+            T_O_C_target=T_O_C_target,
         )
 
     @property
@@ -177,8 +182,11 @@ class Scenario:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data (lists, strings), e.g. for a result's run specification."""
-        out: dict[str, Any] = {"name": self.name, "description": self.description,
-                               "virtual_points": self.virtual_points}
+        out: dict[str, Any] = {
+            "name": self.name,
+            "description": self.description,
+            "virtual_points": self.virtual_points,
+        }
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             if isinstance(value, np.ndarray):
@@ -212,7 +220,8 @@ class Scenario:
     def _joints(self, what: str) -> tuple[np.ndarray, np.ndarray]:
         if self.q_start is None or self.q_target is None:
             raise InvalidParameterError(
-                "scenario", f"free-camera scenario {self.name!r} (asked for {what})",
+                "scenario",
+                f"free-camera scenario {self.name!r} (asked for {what})",
                 "an arm scenario with q_start and q_target",
             )
         return self.q_start, self.q_target

@@ -1,4 +1,4 @@
-"""Write ``loop_reference.npz``: signals of the paper's controller from the loop before the servo-loop rebuild.
+"""Write ``loop_reference.npz``: the paper controller's signals from the loop before the role-based loop.
 
 Run once, at the commit that still had the monolithic ``simulation/simulate.py`` loop, with
 ``.venv/bin/python tests/regression/make_reference.py``; ``tests/test_loop_regression.py`` then
@@ -23,20 +23,56 @@ from ibvs_youla.simulation.settings import SimulationSettings
 CASES = [
     ("p1-ffb-adaptive-paper", "paper-1", "ff+fb", True, 0.3, {}, True),
     ("p2-ffb-adaptive-paper", "paper-2", "ff+fb", True, 0.3, {}, True),
-    ("p1-fb-adaptive-previous", "paper-1", "fb", True, 0.3, {"branch_prior": "previous", "record_every": 3}, True),
+    (
+        "p1-fb-adaptive-previous",
+        "paper-1",
+        "fb",
+        True,
+        0.3,
+        {"branch_prior": "previous", "record_every": 3},
+        True,
+    ),
     ("p2-fb-fixed-paper", "paper-2", "fb", False, 0.3, {}, True),
     ("p2-fb-fixed-target", "paper-2", "fb", False, 0.3, {"linearize_at": "target"}, True),
     ("p1-fb-adaptive-encoders", "paper-1", "fb", True, 0.3, {"estimate_from_image": False}, True),
     ("p1-ffb-adaptive-100hz", "paper-1", "ff+fb", True, 0.3, {}, False),
-    ("ph2-ffb-smooth-saturate", "physical-2", "ff+fb", True, 0.3, {"feedforward": "smooth", "saturate": True}, False),
+    (
+        "ph2-ffb-smooth-saturate",
+        "physical-2",
+        "ff+fb",
+        True,
+        0.3,
+        {"feedforward": "smooth", "saturate": True},
+        False,
+    ),
     ("ph1-fb-fixed-100hz", "physical-1", "fb", False, 1.0, {"record_every": 5}, False),
     ("ph2-ffb-adaptive-100hz", "physical-2", "ff+fb", True, 1.0, {"record_every": 5}, False),
     ("p2-ffb-fixed-paper", "paper-2", "ff+fb", False, 0.3, {}, True),
-    ("ph1-ffb-mismatch", "physical-1", "ff+fb", True, 0.5, {"model_inertia_scale": 1.2, "record_every": 2}, False),
+    (
+        "ph1-ffb-mismatch",
+        "physical-1",
+        "ff+fb",
+        True,
+        0.5,
+        {"model_inertia_scale": 1.2, "record_every": 2},
+        False,
+    ),
     ("ph1-ffb-paper-1khz", "physical-1", "ff+fb", True, 0.3, {}, True),
 ]
-SIGNALS = ("t", "q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau", "features", "feature_error",
-           "camera_pose", "visible")
+SIGNALS = (
+    "t",
+    "q",
+    "q_true",
+    "dq",
+    "q_ref",
+    "q_ff",
+    "q_fb",
+    "tau",
+    "features",
+    "feature_error",
+    "camera_pose",
+    "visible",
+)
 
 
 def main() -> None:
@@ -48,10 +84,21 @@ def main() -> None:
         for signal in SIGNALS:
             out[f"{name}/{signal}"] = getattr(result, signal)
         out[f"{name}/n_updates"] = np.array(len(result.update_time))
-        index.append({"name": name, "scenario": scenario, "controller": controller, "adaptive": adaptive,
-                      "duration": duration, "settings": overrides, "paper_settings": paper,
-                      "status": result.metadata["status"]})
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=False).stdout.strip()
+        index.append(
+            {
+                "name": name,
+                "scenario": scenario,
+                "controller": controller,
+                "adaptive": adaptive,
+                "duration": duration,
+                "settings": overrides,
+                "paper_settings": paper,
+                "status": result.metadata["status"],
+            }
+        )
+    commit = subprocess.run(
+        ["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=False
+    ).stdout.strip()
     out["__index__"] = np.array(json.dumps({"commit": commit, "cases": index}))
     path = Path(__file__).with_name("loop_reference.npz")
     np.savez_compressed(path, **out)

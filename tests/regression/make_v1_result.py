@@ -10,7 +10,8 @@ import ibvs_youla as iy
 from ibvs_youla import scenarios
 from ibvs_youla.simulation.settings import SimulationSettings
 
-result = iy.simulate(scenarios.get("physical-2"), "ff+fb", True, 0.05,
-                     settings=SimulationSettings(record_every=5))
+result = iy.simulate(
+    scenarios.get("physical-2"), "ff+fb", True, 0.05, settings=SimulationSettings(record_every=5)
+)
 path = result.save(Path(__file__).with_name("result_v1.npz"))
 print(path, path.stat().st_size)

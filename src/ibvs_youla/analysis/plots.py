@@ -201,14 +201,26 @@ def plot_joint_speeds_torques(result: SimulationResult, arm: Any = None) -> Figu
     columns = tuple(
         column
         for name, column in (
-            ("dq", lambda: (np.degrees(result.dq), np.degrees(np.asarray(arm.dq_max, dtype=float)), "dq{} [deg/s]")),
+            (
+                "dq",
+                lambda: (
+                    np.degrees(result.dq),
+                    np.degrees(np.asarray(arm.dq_max, dtype=float)),
+                    "dq{} [deg/s]",
+                ),
+            ),
             ("tau", lambda: (result.tau, np.asarray(arm.tau_max, dtype=float), "tau{} [N m]")),
         )
         if name in result.signals
         for column in (column(),)
     )  # the kinematic arm records no torque
-    fig, axes = _figure(n, len(columns), _title(result, "joint speeds and torques"),
-                        (5.5 * len(columns), 1.5 * n + 1.0), sharex=True)
+    fig, axes = _figure(
+        n,
+        len(columns),
+        _title(result, "joint speeds and torques"),
+        (5.5 * len(columns), 1.5 * n + 1.0),
+        sharex=True,
+    )
     for col, (x, limit, label) in enumerate(columns):
         for j in range(n):
             ax = axes[j, col]

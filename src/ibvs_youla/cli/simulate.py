@@ -95,13 +95,16 @@ def _summary(result: Any, arm: Any) -> tuple[str, dict[str, Any]]:
     settle = settling_time(result.t, result.features, y_final=result.feature_target, atol=SETTLING_ATOL_M)
     over = overshoot(result.features, y_final=result.feature_target)
     s.update(outcome=outcome.to_dict(), settling_time_s=[float(v) for v in settle])
-    speed, torque = (np.asarray(s[k] if s[k] is not None else [np.nan]) for k in
-                     ("peak_joint_speed_ratio", "peak_torque_ratio"))
+    speed, torque = (
+        np.asarray(s[k] if s[k] is not None else [np.nan])
+        for k in ("peak_joint_speed_ratio", "peak_torque_ratio")
+    )
     ratios = ", ".join(f"{v:.3g}" for v in speed)
     loop = "adaptive" if meta.get("adaptive") else "fixed"
     lines = [
         f"{meta.get('scenario')}: {meta.get('controller')} with the {loop} outer loop on the "
-        f"{meta.get('plant', 'dynamic')} plant, {result.duration:g} s simulated (status {meta.get('status')})",
+        f"{meta.get('plant', 'dynamic')} plant, {result.duration:g} s simulated "
+        f"(status {meta.get('status')})",
         f"  outcome           {outcome.kind}; max |e| per marker "
         + ", ".join(f"{v:.2g}" for v in outcome.point_errors_m)
         + f" m; ||e|| changed {100 * outcome.error_change:+.2g} % over the last 20 % of the run",
@@ -111,7 +114,8 @@ def _summary(result: Any, arm: Any) -> tuple[str, dict[str, Any]]:
         f"  overshoot         {np.nanmax(over) if np.any(np.isfinite(over)) else np.nan:.3g} % (largest)",
         f"  peak joint speed  {ratios} x limit (max {speed.max():.3g}x, joint {speed.argmax() + 1})",
         f"  peak torque       max {torque.max():.3g}x limit (joint {torque.argmax() + 1})"
-        if np.isfinite(torque).all() else "  peak torque       none (this plant takes no torque)",
+        if np.isfinite(torque).all()
+        else "  peak torque       none (this plant takes no torque)",
         "  markers visible   "
         + ", ".join(f"{100 * v:.0f} %" for v in s["visibility_fraction"])
         + (" (virtual points, ERRATA 13)" if meta.get("virtual_points") else ""),

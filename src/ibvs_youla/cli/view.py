@@ -15,9 +15,9 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
         from ..viz import Viewer
     except ImportError as err:
         raise _ViewUnavailable(err) from None
+    from ..model.camera import default_camera
     from ..scenarios import Scenario
     from ..simulation.results import SimulationResult
-    from ..model.camera import default_camera
 
     if args.result is not None:
         if args.scenario or args.config:

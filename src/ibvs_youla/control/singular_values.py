@@ -99,7 +99,8 @@ class SingularValuePolicy:
         smax = sigma[0] if sigma else 0.0
         if smax <= 0.0:
             raise SingularConfigurationError(
-                np.array(sigma), "the Jacobian is zero: no direction can be controlled")
+                np.array(sigma), "the Jacobian is zero: no direction can be controlled"
+            )
         zero = size * _EPS * smax  # numerical rank tolerance
         if self.kind == "damped":
             lam2 = (self.threshold * smax) ** 2

@@ -22,12 +22,12 @@ from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
 from .youla import VARIANTS, YoulaController, YoulaSettings
 
 __all__ = [
+    "VARIANTS",
     "CameraFrame",
     "CommandType",
     "Controller",
     "JointReading",
     "ServoTask",
-    "VARIANTS",
     "YoulaController",
     "YoulaSettings",
     "describe",
@@ -48,7 +48,9 @@ class _Entry:
 _REGISTRY: dict[str, _Entry] = {}
 
 
-def register(name: str, factory: Callable[..., Controller], summary: str, *, youla_settings: bool = False) -> None:
+def register(
+    name: str, factory: Callable[..., Controller], summary: str, *, youla_settings: bool = False
+) -> None:
     """Make ``factory(**params)`` available as ``make(name, **params)`` and ``simulate(controller=name)``.
 
     Args:
@@ -75,8 +77,9 @@ def describe() -> dict[str, str]:
 
 def _entry(name: Any) -> _Entry:
     if not isinstance(name, str) or name not in _REGISTRY:
-        raise InvalidParameterError("controller", name, "a controller object or one of " + ", ".join(
-            repr(n) for n in _REGISTRY))
+        raise InvalidParameterError(
+            "controller", name, "a controller object or one of " + ", ".join(repr(n) for n in _REGISTRY)
+        )
     return _REGISTRY[name]
 
 
@@ -97,7 +100,9 @@ def make(name: str, **params: Any) -> Controller:
         inspect.signature(entry.factory).bind(**params)
     except TypeError as exc:
         accepted = ", ".join(inspect.signature(entry.factory).parameters)
-        raise InvalidParameterError("params", sorted(params), f"parameters of {name!r}: {accepted} ({exc})") from None
+        raise InvalidParameterError(
+            "params", sorted(params), f"parameters of {name!r}: {accepted} ({exc})"
+        ) from None
     return entry.factory(**params)
 
 
@@ -108,7 +113,15 @@ def _youla(feedforward: bool) -> Callable[..., Controller]:
     return factory
 
 
-register("fb", _youla(False), f"the paper's controller, {VARIANTS['fb']}: SVD/Youla image loop (Eq. (53)-(62))",
-         youla_settings=True)
-register("ff+fb", _youla(True), f"the paper's controller, {VARIANTS['ff+fb']} (Eq. (47)-(49), (53)-(62))",
-         youla_settings=True)
+register(
+    "fb",
+    _youla(False),
+    f"the paper's controller, {VARIANTS['fb']}: SVD/Youla image loop (Eq. (53)-(62))",
+    youla_settings=True,
+)
+register(
+    "ff+fb",
+    _youla(True),
+    f"the paper's controller, {VARIANTS['ff+fb']} (Eq. (47)-(49), (53)-(62))",
+    youla_settings=True,
+)

@@ -41,7 +41,14 @@ from ..exceptions import InvalidParameterError
 from ..model.camera import StereoCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
 
-__all__ = ["BRANCH_PRIORS", "FEEDFORWARD_KINDS", "LINEARIZE_AT", "VARIANTS", "YoulaController", "YoulaSettings"]
+__all__ = [
+    "BRANCH_PRIORS",
+    "FEEDFORWARD_KINDS",
+    "LINEARIZE_AT",
+    "VARIANTS",
+    "YoulaController",
+    "YoulaSettings",
+]
 
 # The paper's two controllers: registry name -> label (feedback only; feedforward + feedback).
 VARIANTS = {"fb": "feedback only", "ff+fb": "feedforward + feedback"}
@@ -150,7 +157,11 @@ class YoulaController(Controller):
     command_type = CommandType.JOINT_POSITION
 
     def __init__(
-        self, feedforward: bool = True, adaptive: bool = True, settings: YoulaSettings | None = None, **gains: Any
+        self,
+        feedforward: bool = True,
+        adaptive: bool = True,
+        settings: YoulaSettings | None = None,
+        **gains: Any,
     ) -> None:
         self.feedforward = _flag(feedforward, "feedforward")
         self.adaptive = _flag(adaptive, "adaptive")
@@ -162,7 +173,9 @@ class YoulaController(Controller):
                 "gains", unknown, f"keywords among {', '.join(YoulaSettings.field_names())}"
             )
         base = YoulaSettings() if settings is None else settings
-        self.settings = YoulaSettings(**{**{f: getattr(base, f) for f in YoulaSettings.field_names()}, **gains})
+        self.settings = YoulaSettings(
+            **{**{f: getattr(base, f) for f in YoulaSettings.field_names()}, **gains}
+        )
 
     @property
     def name(self) -> str:  # type: ignore[override]
@@ -178,12 +191,15 @@ class YoulaController(Controller):
         """Build the eye-in-hand model, outer loop and feedforward from the task's models."""
         if task.arm is None:
             raise InvalidParameterError(
-                "task.arm", None, f"an arm model: the paper's controller ({self.name!r}) commands joint "
-                "positions and inverts Eq. (62) with the arm's IK"
+                "task.arm",
+                None,
+                f"an arm model: the paper's controller ({self.name!r}) commands joint "
+                "positions and inverts Eq. (62) with the arm's IK",
             )
         if not isinstance(task.camera, StereoCamera):
             raise InvalidParameterError(
-                "task.camera", type(task.camera).__name__,
+                "task.camera",
+                type(task.camera).__name__,
                 f"a StereoCamera: the paper's controller ({self.name!r}) estimates the pose by stereo P3P",
             )
         super().reset(task)
@@ -221,7 +237,11 @@ class YoulaController(Controller):
         else:
             if self._first_frame:
                 s = self.settings
-                q_lin = self._configuration_estimate(p, q_enc) if s.linearize_at == "start" else self.task.q_target
+                q_lin = (
+                    self._configuration_estimate(p, q_enc)
+                    if s.linearize_at == "start"
+                    else self.task.q_target
+                )
                 self._outer.set_jacobian(self._eye.jacobian(q_lin))
             self._q_fb = self._outer.update(e)
         self._first_frame = False

@@ -137,14 +137,17 @@ class EyeInHand:
         p = as_array(p_image, "p_image")
         if p.shape not in ((3 * n,), (n, 3)):
             raise InvalidArrayError(
-                "p_image", f"an array of shape {p.shape}",
-                f"shape ({3 * n},) or ({n}, 3): [u_l, u_r, v] for each of the {n} markers")
+                "p_image",
+                f"an array of shape {p.shape}",
+                f"shape ({3 * n},) or ({n}, 3): [u_l, u_r, v] for each of the {n} markers",
+            )
         return p.reshape(n, 3)
 
     def _camera_pose_from_image(self, p_image: np.ndarray) -> np.ndarray:
         p = p_image.reshape(p_image.size // 3, 3)
-        return kabsch_centred(triangulate_points(self.camera, p, self.virtual_points), self._markers_centred,
-                              self._markers_mean)
+        return kabsch_centred(
+            triangulate_points(self.camera, p, self.virtual_points), self._markers_centred, self._markers_mean
+        )
 
     def estimate_q(self, p_image: np.ndarray, q_near: np.ndarray) -> np.ndarray:
         """Joint angles q~ = F^-1(p_image) of Eq. (62) (6,) [rad]: the IK branch nearest to q_near.

@@ -47,8 +47,9 @@ def calibrate_hand_eye(A: object, B: object) -> np.ndarray:
     B = as_array(B, "B", (A.shape[0], 4, 4))
     n = A.shape[0]
     if n < 2:
-        raise CalibrationError(f"received {n} motion pair(s); AX = XB needs at least 2 motions "
-                               "with non-parallel rotation axes")
+        raise CalibrationError(
+            f"received {n} motion pair(s); AX = XB needs at least 2 motions with non-parallel rotation axes"
+        )
     for i in range(n):
         as_pose(A[i], f"A[{i}]")
         as_pose(B[i], f"B[{i}]")
@@ -59,7 +60,8 @@ def calibrate_hand_eye(A: object, B: object) -> np.ndarray:
         raise CalibrationError(
             f"the {n} flange rotations have parallel axes or are ~0 (singular values of the stacked "
             f"log R_A_i: {np.round(s, 12).tolist()} rad); valid data need two rotation axes whose "
-            f"ratio s2/s1 exceeds {AXIS_TOL:g}")
+            f"ratio s2/s1 exceeds {AXIS_TOL:g}"
+        )
     U, _, Vt = np.linalg.svd(beta.T @ alpha)  # M = sum_i beta_i alpha_i^T
     D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T))])
     R_X = Vt.T @ D @ U.T
@@ -126,8 +128,10 @@ def simulate_hand_eye_run(
         if len(T_O_E) == n_poses:
             break
     else:
-        raise CalibrationError(f"only {len(T_O_E)} of {n_poses} poses had every marker in view after "
-                               f"{max_tries} draws; move q_center or the markers, or reduce spread")
+        raise CalibrationError(
+            f"only {len(T_O_E)} of {n_poses} poses had every marker in view after "
+            f"{max_tries} draws; move q_center or the markers, or reduce spread"
+        )
     A = np.array([inverse_pose(T_O_E[i]) @ T_O_E[i + 1] for i in range(n_poses - 1)])
     B = np.array([T_C_M[i] @ inverse_pose(T_C_M[i + 1]) for i in range(n_poses - 1)])
     return A, B

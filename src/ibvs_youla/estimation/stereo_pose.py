@@ -58,12 +58,16 @@ def check_marker_geometry(P: object, name: str = "P", weights: np.ndarray | None
     scale = max(float(np.abs(P).max()), 1.0)
     if s[0] <= COINCIDENT_TOL * scale:
         raise DegenerateMarkersError(
-            P, f"{name}: the points coincide (spread {s[0]:.3g} m); valid marker sets span a triangle "
-               f"(spread > {COINCIDENT_TOL:g} x {scale:.3g} m)")
+            P,
+            f"{name}: the points coincide (spread {s[0]:.3g} m); valid marker sets span a triangle "
+            f"(spread > {COINCIDENT_TOL:g} x {scale:.3g} m)",
+        )
     if s[1] <= COLLINEAR_TOL * s[0]:
         raise DegenerateMarkersError(
-            P, f"{name}: the points are collinear (in-plane spread ratio s2/s1 = {s[1] / s[0]:.3g}); "
-               f"valid marker sets have s2/s1 > {COLLINEAR_TOL:g}")
+            P,
+            f"{name}: the points are collinear (in-plane spread ratio s2/s1 = {s[1] / s[0]:.3g}); "
+            f"valid marker sets have s2/s1 > {COLLINEAR_TOL:g}",
+        )
     return P
 
 
@@ -205,8 +209,9 @@ def estimate_pose(
     p = as_array(p_image, "p_image")
     if p.shape not in ((n, 3), (3 * n,)):
         raise InvalidArrayError(
-            "p_image", f"an array of shape {p.shape}",
-            f"shape ({n}, 3) or ({3 * n},): [u_l, u_r, v] for each of the {n} points of P_ref")
+            "p_image",
+            f"an array of shape {p.shape}",
+            f"shape ({n}, 3) or ({3 * n},): [u_l, u_r, v] for each of the {n} points of P_ref",
+        )
     P_C = triangulate_points(camera, p.reshape(n, 3), allow_behind)
     return kabsch(P_C, P_ref)
-

@@ -194,7 +194,14 @@ def elbow_solutions(
         q3 = gamma - beta
         q2 = math.atan2(r, s) - math.atan2(L * math.sin(gamma), p.a2 + L * math.cos(gamma))
         sp, cp = math.sin(q2 + q3), math.cos(q2 + q3)
-        R36 = (sp * a0 + cp * r20, sp * a2 + cp * r22, b0, b2,
-               cp * a0 - sp * r20, cp * a1 - sp * r21, cp * a2 - sp * r22)
+        R36 = (
+            sp * a0 + cp * r20,
+            sp * a2 + cp * r22,
+            b0,
+            b2,
+            cp * a0 - sp * r20,
+            cp * a1 - sp * r21,
+            cp * a2 - sp * r22,
+        )
         out.append((q2, q3, R36))
     return out

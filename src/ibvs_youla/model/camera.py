@@ -51,11 +51,25 @@ def _zed_intrinsics(preset: str, mode: str, frame_rate: float | None) -> dict:
         raise InvalidParameterError("frame_rate", frame_rate, f"one of {rates} fps in mode {mode!r}")
     if preset == "paper":  # Table A3: the sensor extent is fixed, the mode sets the pixel count
         pitch = 5.23e-3 / width_px
-        return dict(focal_length=2.8e-3, sensor_width=5.23e-3, sensor_height=2.94e-3, pixel_pitch=pitch,
-                    depth_range=(0.5, 25.0), frame_rate=float(frame_rate), name=f"paper-{mode}")
+        return dict(
+            focal_length=2.8e-3,
+            sensor_width=5.23e-3,
+            sensor_height=2.94e-3,
+            pixel_pitch=pitch,
+            depth_range=(0.5, 25.0),
+            frame_rate=float(frame_rate),
+            name=f"paper-{mode}",
+        )
     pitch = _ZED2_PITCH[mode]  # the mode's active area is its pixel count times its pitch
-    return dict(focal_length=2.12e-3, sensor_width=width_px * pitch, sensor_height=height_px * pitch,
-                pixel_pitch=pitch, depth_range=(0.3, 20.0), frame_rate=float(frame_rate), name=f"zed2-{mode}")
+    return dict(
+        focal_length=2.12e-3,
+        sensor_width=width_px * pitch,
+        sensor_height=height_px * pitch,
+        pixel_pitch=pitch,
+        depth_range=(0.3, 20.0),
+        frame_rate=float(frame_rate),
+        name=f"zed2-{mode}",
+    )
 
 
 def _check_depth(Z: np.ndarray, allow_behind: bool) -> None:
@@ -63,11 +77,17 @@ def _check_depth(Z: np.ndarray, allow_behind: bool) -> None:
     if (np.abs(Z).min() if allow_behind else Z.min()) >= MIN_ABS_DEPTH:
         return
     bad = np.flatnonzero(np.abs(Z) < MIN_ABS_DEPTH if allow_behind else Z < MIN_ABS_DEPTH)
-    valid = f"|Z_C| >= {MIN_ABS_DEPTH:g} m" if allow_behind else (
-        f"Z_C >= {MIN_ABS_DEPTH:g} m (in front of the camera); pass allow_behind=True for the "
-        "paper's virtual points (ERRATA 13)")
+    valid = (
+        f"|Z_C| >= {MIN_ABS_DEPTH:g} m"
+        if allow_behind
+        else (
+            f"Z_C >= {MIN_ABS_DEPTH:g} m (in front of the camera); pass allow_behind=True for the "
+            "paper's virtual points (ERRATA 13)"
+        )
+    )
     raise PointBehindCameraError(
-        bad, Z[bad], f"points {bad.tolist()} have depth Z_C = {Z[bad].tolist()} m; valid depths are {valid}")
+        bad, Z[bad], f"points {bad.tolist()} have depth Z_C = {Z[bad].tolist()} m; valid depths are {valid}"
+    )
 
 
 def _raise_disparity(d: np.ndarray, d_min: float, allow_behind: bool) -> None:
@@ -75,7 +95,8 @@ def _raise_disparity(d: np.ndarray, d_min: float, allow_behind: bool) -> None:
     bad = np.flatnonzero(np.abs(d) < d_min if allow_behind else d < d_min)
     valid = f"{'|u_r - u_l|' if allow_behind else 'u_r - u_l'} >= {d_min:.3g} m"
     raise InvalidDisparityError(
-        bad, d[bad], f"points {bad.tolist()} have disparity u_r - u_l = {d[bad].tolist()} m; valid: {valid}")
+        bad, d[bad], f"points {bad.tolist()} have disparity u_r - u_l = {d[bad].tolist()} m; valid: {valid}"
+    )
 
 
 def _points(P: object, name: str, width: int = 3) -> np.ndarray:
@@ -116,8 +137,10 @@ class Visibility:
         """One line per point, e.g. for a run report."""
         return "\n".join(
             f"point {i}: Z_C = {z:+.3f} m, in front {f}, in FOV {v}, in depth range {d}"
-            for i, (z, f, v, d) in enumerate(zip(self.depth, self.in_front, self.in_fov, self.in_depth_range,
-                                                 strict=True)))
+            for i, (z, f, v, d) in enumerate(
+                zip(self.depth, self.in_front, self.in_fov, self.in_depth_range, strict=True)
+            )
+        )
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -225,8 +248,9 @@ class _Sensor:
         p_px = _points(p_px, "p_px", len(self._lens_x) + 1)
         out = np.empty_like(p_px)
         out[:, -1] = (p_px[:, -1] - self.principal_point[1]) * self.pixel_pitch
-        out[:, :-1] = (p_px[:, :-1] - self.principal_point[0] - self.skew * out[:, -1:] / self.focal_length
-                       ) * self.pixel_pitch
+        out[:, :-1] = (
+            p_px[:, :-1] - self.principal_point[0] - self.skew * out[:, -1:] / self.focal_length
+        ) * self.pixel_pitch
         return out
 
     def _u_to_px(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -302,9 +326,15 @@ class PinholeCamera(_Sensor):
         conversions are not meaningful for this camera.
         """
         return cls(
-            focal_length=1.0, sensor_width=2.0, sensor_height=2.0, pixel_pitch=1.0,
-            principal_point=(1.0, 1.0), depth_range=(0.0, MAX_ABS_DEPTH), frame_rate=frame_rate,
-            name="normalized", unbounded_view=True,
+            focal_length=1.0,
+            sensor_width=2.0,
+            sensor_height=2.0,
+            pixel_pitch=1.0,
+            principal_point=(1.0, 1.0),
+            depth_range=(0.0, MAX_ABS_DEPTH),
+            frame_rate=frame_rate,
+            name="normalized",
+            unbounded_view=True,
         )
 
     def back_project(self, p: object, Z: object, allow_behind: bool = False) -> np.ndarray:

@@ -101,7 +101,7 @@ class InnerLoopActuator:
         self._inner = InnerLoopDesign(tau_in).discrete_controller(dt, arm.nq)
 
     def __call__(self, q_ref: np.ndarray, reading: JointReading) -> np.ndarray:
-        """tau = M(q) G_C(z)[q_ref - q] + h(q, dq) (n,) [N m], from one RNEA pass."""
+        """Tau = M(q) G_C(z)[q_ref - q] + h(q, dq) (n,) [N m], from one RNEA pass."""
         q, dq = reading.q, reading.dq
         v = self._inner.step(q_ref - q)
         return self._arm.rnea(q, dq, v)
@@ -151,7 +151,9 @@ def actuation_chain(
     if current not in accepted:
         why = "the controller has no arm model to convert it" if arm is None else "no adapter converts it"
         raise IncompatibleCommandError(
-            command_type.value, plant.name, [a.value for a in accepted],
+            command_type.value,
+            plant.name,
+            [a.value for a in accepted],
             f"the controller commands {command_type.value} but the {plant.name!r} plant accepts "
             f"{' or '.join(a.value for a in accepted)} and {why} (chain: "
             f"{' -> '.join(c.value for c in _CHAIN)})",

@@ -6,8 +6,9 @@ of SE(3),
 
     T_O_C(t + dt) = T_O_C(t) exp(dt [xi]^),
 
-exact for a constant body twist (Pinocchio's ``exp6``, through ``_geometry.exp_twist``). This is the plant of the classical
-IBVS studies (local minima, camera retreat), where no joint limits or dynamics interfere.
+exact for a constant body twist (Pinocchio's ``exp6``, through ``_geometry.exp_twist``).
+This is the plant of the classical IBVS studies (local minima, camera retreat), where no
+joint limits or dynamics interfere.
 It has no joints: the controller's :class:`~ibvs_youla.controllers.JointReading` is None.
 """
 
@@ -43,7 +44,9 @@ class FreeCameraPlant:
     def use_input(self, command_type: CommandType) -> None:
         """The free camera takes a camera twist only; anything else raises InvalidParameterError."""
         if command_type is not CommandType.CAMERA_TWIST:
-            raise InvalidParameterError("command_type", command_type, "camera_twist (the free camera's input)")
+            raise InvalidParameterError(
+                "command_type", command_type, "camera_twist (the free camera's input)"
+            )
 
     def reading(self) -> None:
         """No joints, no encoders."""
@@ -62,7 +65,10 @@ class FreeCameraPlant:
         xi = np.asarray(command, dtype=float)
         if xi.shape != (6,) or not np.all(np.isfinite(xi)):
             raise SimulationDivergedError(
-                self.t, "camera_twist", np.array(xi), "a finite (6,) twist",
+                self.t,
+                "camera_twist",
+                np.array(xi),
+                "a finite (6,) twist",
                 f"simulation diverged at t = {self.t:.6g} s: camera twist {xi.tolist()} is not a finite "
                 "(6,) vector [v; w] [m/s, rad/s]",
             )

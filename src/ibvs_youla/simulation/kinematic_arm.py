@@ -31,7 +31,9 @@ from ..exceptions import InvalidParameterError, SimulationDivergedError
 __all__ = ["KinematicArmPlant", "inner_closed_loop_matrices"]
 
 
-def inner_closed_loop_matrices(tau_in: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def inner_closed_loop_matrices(
+    tau_in: float, dt: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Exact ZOH discretization of T_in = (3 tau s + 1)/(tau s + 1)^3 in controllable form.
 
     Returns:
@@ -85,7 +87,9 @@ class KinematicArmPlant:
     def use_input(self, command_type: CommandType) -> None:
         """Choose which accepted command :meth:`apply` receives (joint velocity or position)."""
         if command_type not in self.accepts:
-            raise InvalidParameterError("command_type", command_type, " or ".join(c.value for c in self.accepts))
+            raise InvalidParameterError(
+                "command_type", command_type, " or ".join(c.value for c in self.accepts)
+            )
         self.input_type = command_type
 
     @property
@@ -109,9 +113,14 @@ class KinematicArmPlant:
         """Hold ``command`` over ``dt``: a joint velocity or a position reference (see :meth:`use_input`)."""
         command_type = self.input_type
         if not np.all(np.isfinite(command)):
-            raise SimulationDivergedError(self.t, "command", np.array(command), "finite values",
-                                          f"simulation diverged at t = {self.t:.6g} s: non-finite "
-                                          f"{command_type.value} command {np.asarray(command).tolist()}")
+            raise SimulationDivergedError(
+                self.t,
+                "command",
+                np.array(command),
+                "finite values",
+                f"simulation diverged at t = {self.t:.6g} s: non-finite "
+                f"{command_type.value} command {np.asarray(command).tolist()}",
+            )
         if command_type is CommandType.JOINT_VELOCITY:
             self._q = self._q + command * dt
             self._dq = np.array(command, dtype=float)

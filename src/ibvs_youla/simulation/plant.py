@@ -167,7 +167,9 @@ class ArmPlant:
     def use_input(self, command_type: CommandType) -> None:
         """The dynamic arm takes joint torques only; anything else raises InvalidParameterError."""
         if command_type is not CommandType.JOINT_TORQUE:
-            raise InvalidParameterError("command_type", command_type, "joint_torque (the dynamic arm's input)")
+            raise InvalidParameterError(
+                "command_type", command_type, "joint_torque (the dynamic arm's input)"
+            )
 
     def reading(self) -> JointReading:
         """Encoder reading now: ``q_true - d`` and ``dq`` (arrays the plant replaces, never modifies)."""

@@ -126,7 +126,9 @@ class SimulationResult:
         set_(self, "visible", visible)
         n_points = visible.shape[1]
         if not isinstance(self.signals, dict):
-            raise InvalidParameterError("signals", type(self.signals).__name__, "a dict name -> (N, ...) array")
+            raise InvalidParameterError(
+                "signals", type(self.signals).__name__, "a dict name -> (N, ...) array"
+            )
         signals = {}
         for name, value in self.signals.items():
             arr = as_array(value, f"signals[{name!r}]", finite=False)
@@ -142,10 +144,13 @@ class SimulationResult:
         frame_visible = np.ones((k, n_points), bool) if self.frame_visible is None else self.frame_visible
         frame_visible = np.asarray(frame_visible, dtype=bool)
         if frame_visible.shape != (k, n_points):
-            raise InvalidArrayError("frame_visible", f"an array of shape {frame_visible.shape}",
-                                    f"shape ({k}, {n_points})")
+            raise InvalidArrayError(
+                "frame_visible", f"an array of shape {frame_visible.shape}", f"shape ({k}, {n_points})"
+            )
         set_(self, "frame_visible", frame_visible)
-        update_time = np.zeros(k) if self.update_time is None else as_array(self.update_time, "update_time", (None,))
+        update_time = (
+            np.zeros(k) if self.update_time is None else as_array(self.update_time, "update_time", (None,))
+        )
         if k and update_time.shape != (k,):
             raise InvalidArrayError("update_time", f"an array of shape {update_time.shape}", f"shape ({k},)")
         set_(self, "update_time", update_time)
@@ -159,7 +164,8 @@ class SimulationResult:
         if name in signals:
             return signals[name]
         raise AttributeError(
-            f"{type(self).__name__} has no attribute or signal {name!r}; signals: {', '.join(signals) or 'none'}"
+            f"{type(self).__name__} has no attribute or signal {name!r}; "
+            f"signals: {', '.join(signals) or 'none'}"
         )
 
     # ------------------------------------------------------------------ convenience
@@ -258,10 +264,20 @@ class SimulationResult:
         return cls(**{n: arrays[n] for n in names}, signals=signals, metadata=header["metadata"])
 
     @classmethod
-    def _from_format_1(cls, path: Path, arrays: dict[str, np.ndarray], metadata: dict[str, Any]) -> SimulationResult:
+    def _from_format_1(
+        cls, path: Path, arrays: dict[str, np.ndarray], metadata: dict[str, Any]
+    ) -> SimulationResult:
         """Format 1: fixed fields, no frame log (``feature_error`` was stored; it is derived now)."""
-        required = ["t", *_LEGACY_SIGNALS, "features", "feature_target", "camera_pose", "camera_pose_target",
-                    "visible", "update_time"]
+        required = [
+            "t",
+            *_LEGACY_SIGNALS,
+            "features",
+            "feature_target",
+            "camera_pose",
+            "camera_pose_target",
+            "visible",
+            "update_time",
+        ]
         missing = [n for n in required if n not in arrays]
         if missing:
             raise InvalidParameterError("path", str(path), f"a saved SimulationResult (missing {missing})")
@@ -362,7 +378,9 @@ class ResultRecorder:
                 name: np.empty((capacity, *np.shape(value)), dtype=float) for name, value in signals.items()
             }
         elif signals.keys() != self._signals.keys():
-            raise InvalidParameterError("signals", sorted(signals), f"the names of the first sample {sorted(self._signals)}")
+            raise InvalidParameterError(
+                "signals", sorted(signals), f"the names of the first sample {sorted(self._signals)}"
+            )
         tick = self._tick
         tick["t"][i] = t
         tick["camera_pose"][i] = camera_pose

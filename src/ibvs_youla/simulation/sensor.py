@@ -48,7 +48,8 @@ class MarkerSensor:
         minimum = 3 if isinstance(camera, StereoCamera) else 4
         if markers.shape[0] < minimum:
             raise InvalidParameterError(
-                "markers_O", f"{markers.shape[0]} markers",
+                "markers_O",
+                f"{markers.shape[0]} markers",
                 f">= {minimum} markers for a {type(camera).__name__} (stereo P3P needs 3; a monocular "
                 "camera 4, since 3 points leave up to four poses)",
             )

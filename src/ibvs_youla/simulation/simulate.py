@@ -67,8 +67,9 @@ class Beliefs:
         if self.arm is not None and not isinstance(self.arm, Arm):
             raise InvalidParameterError("beliefs.arm", type(self.arm).__name__, "an Arm or None")
         if self.camera is not None and not isinstance(self.camera, (StereoCamera, PinholeCamera)):
-            raise InvalidParameterError("beliefs.camera", type(self.camera).__name__,
-                                        "a StereoCamera, a PinholeCamera or None")
+            raise InvalidParameterError(
+                "beliefs.camera", type(self.camera).__name__, "a StereoCamera, a PinholeCamera or None"
+            )
         if self.markers_O is not None:
             markers = as_array(self.markers_O, "beliefs.markers_O", (None, 3)).copy()
             markers.setflags(write=False)
@@ -158,7 +159,12 @@ def simulate(
         if settings.model_inertia_scale != 1.0:
             model_arm = model_arm.with_inertia_scale(settings.model_inertia_scale)
     chain = actuation_chain(
-        ctrl.command_type, world.plant, arm=model_arm, q_start=scenario.q_start, tau_in=settings.tau_in, dt=world.dt
+        ctrl.command_type,
+        world.plant,
+        arm=model_arm,
+        q_start=scenario.q_start,
+        tau_in=settings.tau_in,
+        dt=world.dt,
     )
     task = ServoTask(
         camera=camera if beliefs.camera is None else beliefs.camera,
@@ -179,11 +185,24 @@ def simulate(
     command_signals = (ctrl.command_type.signal, *(a.output_type.signal for a in chain))
     metadata = _metadata(scenario, ctrl, plant, world, camera, settings, beliefs, n_ticks)
     recorder = ResultRecorder(
-        task.feature_target, world.T_O_C_target, n_ticks // record_every + 2, n_points=sensor.n_points,
+        task.feature_target,
+        world.T_O_C_target,
+        n_ticks // record_every + 2,
+        n_points=sensor.n_points,
         metadata=metadata,
     )
-    loop = ServoLoop(ctrl, sensor, world.plant, chain, world.dt, n_ticks, world.ticks_per_frame, record_every,
-                     recorder, command_signals)
+    loop = ServoLoop(
+        ctrl,
+        sensor,
+        world.plant,
+        chain,
+        world.dt,
+        n_ticks,
+        world.ticks_per_frame,
+        record_every,
+        recorder,
+        command_signals,
+    )
     return loop.run(progress, scenario.name or "simulate")
 
 
@@ -193,14 +212,17 @@ def _controller(controller: Any, adaptive: bool, settings: SimulationSettings) -
             return make(controller, adaptive=adaptive, settings=settings.controller_settings())
         if not adaptive:
             raise InvalidParameterError(
-                "adaptive", adaptive, f"True for {controller!r} (only the paper's controllers have a fixed-J "
-                "variant; pass options with iy.controllers.make)"
+                "adaptive",
+                adaptive,
+                f"True for {controller!r} (only the paper's controllers have a fixed-J "
+                "variant; pass options with iy.controllers.make)",
             )
         return make(controller)
     missing = [a for a in ("reset", "update", "command", "command_type") if not hasattr(controller, a)]
     if missing:
         raise InvalidParameterError(
-            "controller", type(controller).__name__,
+            "controller",
+            type(controller).__name__,
             f"a registered name or a controller object (an iy.controllers.Controller; missing {missing})",
         )
     CommandType.parse(controller.command_type)
@@ -226,14 +248,24 @@ def _arm_world(scenario: Scenario, plant: str, arm: Arm, settings: SimulationSet
     dt = settings.dt
     if plant == "dynamic":
         world_plant: Any = ArmPlant(
-            arm, scenario.joint_offset, q_encoder=scenario.q_start,
-            saturate_torque=settings.saturate, saturate_speed=settings.saturate,
+            arm,
+            scenario.joint_offset,
+            q_encoder=scenario.q_start,
+            saturate_torque=settings.saturate,
+            saturate_speed=settings.saturate,
         )
     else:
-        world_plant = KinematicArmPlant(arm, scenario.joint_offset, q_encoder=scenario.q_start,
-                                        tau_in=settings.tau_in, dt=dt)
-    return _World(world_plant, arm, dt, settings.camera_every, arm.camera_pose(scenario.q_true_start),
-                  arm.camera_pose(scenario.q_target))
+        world_plant = KinematicArmPlant(
+            arm, scenario.joint_offset, q_encoder=scenario.q_start, tau_in=settings.tau_in, dt=dt
+        )
+    return _World(
+        world_plant,
+        arm,
+        dt,
+        settings.camera_every,
+        arm.camera_pose(scenario.q_true_start),
+        arm.camera_pose(scenario.q_target),
+    )
 
 
 def _free_camera_world(scenario: Scenario, arm: Arm | None, settings: SimulationSettings) -> _World:

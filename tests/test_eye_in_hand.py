@@ -154,16 +154,16 @@ def test_public_methods_reject_bad_arrays(arm, camera):
     assert np.array_equal(eih.points_in_camera_at_pose(T_O_C.tolist()), eih.points_in_camera(Q_VIEW))
     nan_p = p.copy()
     nan_p[4] = np.nan
-    with pytest.raises(InvalidArrayError, match=r"p_image: received non-finite entries at \(4,\)"):
+    with pytest.raises(InvalidArrayError, match=r"features: received non-finite entries at \(4,\)"):
         eih.estimate_camera_pose(nan_p)
-    with pytest.raises(InvalidArrayError, match=r"p_image: received non-finite entries at \(4,\)"):
+    with pytest.raises(InvalidArrayError, match=r"features: received non-finite entries at \(4,\)"):
         eih.estimate_q(nan_p, Q_VIEW)
     for bad in (p[:8], np.concatenate((p, p[:3]))):  # 8 values; 12 values (4 markers) for 3 markers
-        with pytest.raises(InvalidArrayError, match=r"p_image: .*expected shape \(9,\) or \(3, 3\)"):
+        with pytest.raises(InvalidArrayError, match=r"features: .*expected shape \(9,\) or \(3, 3\)"):
             eih.estimate_camera_pose(bad)
-        with pytest.raises(InvalidArrayError, match=r"p_image: .*expected shape \(9,\) or \(3, 3\)"):
+        with pytest.raises(InvalidArrayError, match=r"features: .*expected shape \(9,\) or \(3, 3\)"):
             eih.estimate_q(bad, Q_VIEW)
-    with pytest.raises(InvalidArrayError, match="p_image: received str that is not numeric"):
+    with pytest.raises(InvalidArrayError, match="features: received str that is not numeric"):
         eih.estimate_camera_pose("features")
     with pytest.raises(InvalidArrayError, match=r"q_near: received non-finite entries at \(2,\)"):
         eih.estimate_q(p, [0.0, 0.0, np.nan, 0.0, 0.0, 0.0])

@@ -8,6 +8,8 @@ import pytest
 from ibvs_youla.exceptions import InvalidArrayError, InvalidParameterError
 from ibvs_youla.simulation.results import ResultRecorder, SimulationResult
 
+SIGNALS = ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau")
+
 
 def _rz(angle):
     c, s = np.cos(angle), np.sin(angle)
@@ -24,15 +26,21 @@ def _fill(recorder, n, rng):
         if k == 2:
             features[4] = np.nan  # a point behind the camera: NaN is allowed in recorded signals
         visible = rng.random(3) > 0.5
-        signals = {name: rng.normal(size=6) for name in ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau")}
-        recorder.record(1e-3 * k, T, features, visible, signals)
+        recorder.record(1e-3 * k, T, features, visible, [rng.normal(size=6) for _ in SIGNALS])
         recorder.record_frame(1e-3 * k, features, visible, float(rng.random()) * 1e-4)
 
 
 def _recorder(capacity=4, metadata=None):
     target_pose = _rz(0.3)
     target_pose[:3, 3] = [1.0, 2.0, 3.0]
-    return ResultRecorder(np.linspace(-1e-3, 1e-3, 9), target_pose, capacity, n_points=3, metadata=metadata)
+    return ResultRecorder(
+        np.linspace(-1e-3, 1e-3, 9),
+        target_pose,
+        capacity,
+        n_points=3,
+        signal_names=SIGNALS,
+        metadata=metadata,
+    )
 
 
 def test_recorder_grows_past_capacity_and_computes_feature_error():
@@ -154,12 +162,14 @@ def test_bad_input_raises():
         )
     with pytest.raises(InvalidParameterError, match="status"):
         _recorder().result(status="finished")
-    rec = _recorder()
-    rec.record(0.0, np.eye(4), np.zeros(9), np.ones(3, bool), {"q": np.zeros(6)})
-    with pytest.raises(InvalidParameterError, match="signals"):
-        rec.record(1e-3, np.eye(4), np.zeros(9), np.ones(3, bool), {"dq": np.zeros(6)})
+    rec = ResultRecorder(np.zeros(9), np.eye(4), 2, signal_names=("q",))
+    rec.record(0.0, np.eye(4), np.zeros(9), np.ones(3, bool), [np.zeros(6)])
+    with pytest.raises(InvalidParameterError, match="one per name of \\('q',\\)"):
+        rec.record(1e-3, np.eye(4), np.zeros(9), np.ones(3, bool), [np.zeros(6), np.zeros(6)])
     with pytest.raises(AttributeError, match="no attribute or signal 'q_ff'; signals: q"):
         rec.result().q_ff  # noqa: B018
+    with pytest.raises(InvalidParameterError, match="signal_names"):
+        ResultRecorder(np.zeros(9), np.eye(4), 2, signal_names=("q", "q"))
 
 
 def test_a_file_saved_in_format_1_loads_with_every_signal():

@@ -132,11 +132,11 @@ def test_estimate_pose_rejects_bad_arrays():
     assert np.radians(deg) <= 1e-9 and mm / 1000.0 <= 1e-9  # [rad], [m]
     bad = p.copy()
     bad[1, 2] = np.nan
-    with pytest.raises(InvalidArrayError, match=r"p_image: received non-finite entries at \(1, 2\)"):
+    with pytest.raises(InvalidArrayError, match=r"features: received non-finite entries at \(1, 2\)"):
         estimate_pose(cam, bad, MARKERS_O)
     with pytest.raises(
         InvalidArrayError,
-        match=r"p_image: received an array of shape \(2, 3\); "
+        match=r"features: received an array of shape \(2, 3\); "
         r"expected shape \(3, 3\) or \(9,\)",
     ):
         estimate_pose(cam, p[:2], MARKERS_O)

@@ -225,7 +225,7 @@ class OuterLoopController:
         """One camera sample: q_fb[k] = K(z)[P e][k].
 
         Args:
-            e_image: Image error e = p_image_desired - p_image (m,) [m on the sensor].
+            e_image: Image error e = feature_target - features (m,) [m on the sensor].
             J: Current image Jacobian (m, n); ``None`` uses the fixed one.
 
         Returns:

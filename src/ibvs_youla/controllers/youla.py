@@ -3,7 +3,7 @@
 Figures 7-12 of the paper, as one :class:`~.base.Controller` that commands a joint position
 reference ``q_ref = q_ff + q_fb`` at every joint tick:
 
-* camera rate (:meth:`YoulaController.update`): the image error ``e = p_target - p`` drives
+* camera rate (:meth:`YoulaController.update`): the image error ``e = feature_target - features`` drives
   the outer loop ``q_fb = K(z)[J^+ e]`` (Eq. (53)-(61), ERRATA 9), with the 9x6 image
   Jacobian J re-linearized at every frame at the configuration estimated from the image by
   stereo P3P + IK (Eq. (62), ``adaptive=True``), or evaluated once at the first frame
@@ -206,7 +206,7 @@ class YoulaController(Controller):
         s, arm = self.settings, task.arm
         n = arm.nq
         self._eye = EyeInHand(arm, task.camera, task.markers_O, virtual_points=task.virtual_points)
-        self._p_target = np.array(task.feature_target, dtype=float)
+        self._feature_target = np.array(task.feature_target, dtype=float)
         outer_design = OuterLoopDesign(s.omega_n, s.zeta, s.tau_in, s.sv_policy)
         self._outer = outer_design.runtime(task.frame_period, n)
         dt = task.tick_period
@@ -229,16 +229,16 @@ class YoulaController(Controller):
 
     def update(self, frame: CameraFrame, reading: JointReading | None) -> None:
         """One camera frame: q_fb = K(z)[J^+ e] (Eq. (53)-(62))."""
-        p, q_enc = frame.features, reading.q  # type: ignore[union-attr]
-        e = self._p_target - p
+        features, q_enc = frame.features, reading.q  # type: ignore[union-attr]
+        e = self._feature_target - features
         if self.adaptive:
-            J = self._eye.image_jacobian(self._configuration_estimate(p, q_enc))
+            J = self._eye.image_jacobian(self._configuration_estimate(features, q_enc))
             self._q_fb = self._outer.advance(e, J)
         else:
             if self._first_frame:
                 s = self.settings
                 q_lin = (
-                    self._configuration_estimate(p, q_enc)
+                    self._configuration_estimate(features, q_enc)
                     if s.linearize_at == "start"
                     else self.task.q_target
                 )
@@ -246,14 +246,14 @@ class YoulaController(Controller):
             self._q_fb = self._outer.update(e)
         self._first_frame = False
 
-    def _configuration_estimate(self, p: np.ndarray, q_enc: np.ndarray) -> np.ndarray:
+    def _configuration_estimate(self, features: np.ndarray, q_enc: np.ndarray) -> np.ndarray:
         """Eq. (62): q~ from the image (the IK branch nearest the prior), or the encoders."""
         s = self.settings
         if not s.estimate_from_image:
             return q_enc
         use_previous = s.branch_prior == "previous" and self._q_estimate is not None
         q_near = self._q_estimate if use_previous else q_enc
-        self._q_estimate = self._eye.q_from_image(p, q_near)
+        self._q_estimate = self._eye.q_from_image(features, q_near)
         return self._q_estimate
 
     def command(self, reading: JointReading | None) -> np.ndarray:

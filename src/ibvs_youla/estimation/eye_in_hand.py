@@ -1,8 +1,9 @@
 """Eye-in-hand model F: joint angles -> stereo features of fixed markers, its Jacobian and inverse.
 
-Sec. 4.4-4.5 (Eq. 21-25): P_C = T_C_O P_O, p_image = M(P_C) (Eq. 11), so p_image = F(q, Pa, P_O)
-(Eq. 24). Sec. 6.3: the 9x6 Jacobian J = L(P_C) J_C(q) (Eq. 51, ERRATA 12) and the estimate
-q~ = F^-1(p_image) (Eq. 62) through stereo P3P (Sec. 3, Appendix C) and the arm's inverse kinematics.
+Sec. 4.4-4.5 (Eq. 21-25): P_C = T_C_O P_O, features = M(P_C) (Eq. 11; the paper's p_image), so
+features = F(q, Pa, P_O) (Eq. 24). Sec. 6.3: the 9x6 Jacobian J = L(P_C) J_C(q) (Eq. 51, ERRATA 12)
+and the estimate q~ = F^-1(features) (Eq. 62) through stereo P3P (Sec. 3, Appendix C) and the
+arm's inverse kinematics.
 The public methods validate their arguments (a NaN or mis-shaped input raises InvalidArrayError,
 never a NaN result or a bare numpy error); constants are precomputed. Two of them are a check in
 front of a kernel that the servo loop's controller calls directly, at every camera frame, with
@@ -120,51 +121,51 @@ class EyeInHand:
         """Depth sign, field of view and depth range of every marker at q (ERRATA 13)."""
         return self.camera.visibility(self.points_in_camera(q))
 
-    def estimate_camera_pose(self, p_image: np.ndarray) -> np.ndarray:
+    def estimate_camera_pose(self, features: np.ndarray) -> np.ndarray:
         """Stereo P3P (Sec. 3, Appendix C): T_O_C (4x4) from features (3n,) or (n, 3) [m].
 
         Triangulates the markers (Eq. C6-C8) and fits T_O_C with P_O ≈ T_O_C P_C (Eq. C10-C17).
 
         Raises:
-            InvalidArrayError: ``p_image`` is not a finite (3n,) or (n, 3) array, n the number of markers.
+            InvalidArrayError: ``features`` is not a finite (3n,) or (n, 3) array, n the number of markers.
             InvalidDisparityError: a marker's disparity is ~0, or negative without virtual points.
         """
-        return self._camera_pose_from_image(self._check_features(p_image))
+        return self._camera_pose_from_image(self._check_features(features))
 
-    def _check_features(self, p_image: object) -> np.ndarray:
-        """``p_image`` as a finite (n, 3) float array, n the number of markers (accepts (3n,) or (n, 3))."""
+    def _check_features(self, features: object) -> np.ndarray:
+        """``features`` as a finite (n, 3) float array, n the number of markers (accepts (3n,) or (n, 3))."""
         n = self.markers_O.shape[0]
-        p = as_array(p_image, "p_image")
+        p = as_array(features, "features")
         if p.shape not in ((3 * n,), (n, 3)):
             raise InvalidArrayError(
-                "p_image",
+                "features",
                 f"an array of shape {p.shape}",
                 f"shape ({3 * n},) or ({n}, 3): [u_l, u_r, v] for each of the {n} markers",
             )
         return p.reshape(n, 3)
 
-    def _camera_pose_from_image(self, p_image: np.ndarray) -> np.ndarray:
-        p = p_image.reshape(p_image.size // 3, 3)
+    def _camera_pose_from_image(self, features: np.ndarray) -> np.ndarray:
+        p = features.reshape(features.size // 3, 3)
         return kabsch_centred(
             triangulate_points(self.camera, p, self.virtual_points), self._markers_centred, self._markers_mean
         )
 
-    def estimate_q(self, p_image: np.ndarray, q_near: np.ndarray) -> np.ndarray:
-        """Joint angles q~ = F^-1(p_image) of Eq. (62) (6,) [rad]: the IK branch nearest to q_near.
+    def estimate_q(self, features: np.ndarray, q_near: np.ndarray) -> np.ndarray:
+        """Joint angles q~ = F^-1(features) of Eq. (62) (6,) [rad]: the IK branch nearest to q_near.
 
         Raises:
-            InvalidArrayError: ``p_image`` is not a finite (3n,) or (n, 3) array, or ``q_near`` not a
+            InvalidArrayError: ``features`` is not a finite (3n,) or (n, 3) array, or ``q_near`` not a
                 finite (6,) array.
             InvalidDisparityError: see `estimate_camera_pose`.
             UnreachablePoseError: no IK branch within the joint limits reaches the estimated pose.
         """
-        return self.q_from_image(self._check_features(p_image), as_array(q_near, "q_near", (6,)))
+        return self.q_from_image(self._check_features(features), as_array(q_near, "q_near", (6,)))
 
-    def q_from_image(self, p_image: np.ndarray, q_near: np.ndarray) -> np.ndarray:
-        """q~ = F^-1(p_image) of Eq. (62): stereo P3P, then the IK branch nearest q_near (``Arm.ik_nearest``).
+    def q_from_image(self, features: np.ndarray, q_near: np.ndarray) -> np.ndarray:
+        """q~ = F^-1(features) of Eq. (62): stereo P3P, then the IK branch nearest q_near (Arm.ik_nearest).
 
-        Kernel of `estimate_q`: does not validate its arguments. ``p_image`` must be a finite
+        Kernel of `estimate_q`: does not validate its arguments. ``features`` must be a finite
         float (3n,) or (n, 3) array [m], ``q_near`` a finite float (6,) array [rad]; the errors
         of `estimate_q` on valid input (disparity, unreachable pose) are still raised.
         """
-        return self.arm.ik_nearest(self._camera_pose_from_image(p_image), q_near)
+        return self.arm.ik_nearest(self._camera_pose_from_image(features), q_near)

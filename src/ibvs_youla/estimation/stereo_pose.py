@@ -187,7 +187,7 @@ def marker_coordinates(P: object, toward: object = None) -> np.ndarray:
 
 
 def estimate_pose(
-    camera: StereoCamera, p_image: np.ndarray, P_ref: np.ndarray, allow_behind: bool = False
+    camera: StereoCamera, features: np.ndarray, P_ref: np.ndarray, allow_behind: bool = False
 ) -> np.ndarray:
     """Stereo P3P (Sec. 3, Appendix C): T_ref_C (4x4) from features (n, 3) of points known in a frame ref.
 
@@ -195,21 +195,21 @@ def estimate_pose(
 
     Args:
         camera: The stereo camera.
-        p_image: Features (n, 3), rows [u_l, u_r, v] [m on the sensor], or flat (3n,).
+        features: Features (n, 3), rows [u_l, u_r, v] [m on the sensor], or flat (3n,).
         P_ref: The same points (n, 3), n >= 3, in the frame ref [m]; not coincident or collinear.
         allow_behind: Accept points behind the camera (negative disparity, ERRATA 13).
 
     Raises:
-        InvalidArrayError: non-finite or mis-shaped ``p_image`` or ``P_ref``, or their lengths differ.
+        InvalidArrayError: non-finite or mis-shaped ``features`` or ``P_ref``, or their lengths differ.
         DegenerateMarkersError: ``P_ref`` is coincident or collinear.
         InvalidDisparityError: a disparity is ~0, or negative without ``allow_behind``.
     """
     P_ref = check_marker_geometry(P_ref, "P_ref")
     n = P_ref.shape[0]
-    p = as_array(p_image, "p_image")
+    p = as_array(features, "features")
     if p.shape not in ((n, 3), (3 * n,)):
         raise InvalidArrayError(
-            "p_image",
+            "features",
             f"an array of shape {p.shape}",
             f"shape ({n}, 3) or ({3 * n},): [u_l, u_r, v] for each of the {n} points of P_ref",
         )

@@ -255,9 +255,14 @@ class Arm:
 
     def camera_pose(self, q: Any) -> np.ndarray:
         """T_O_C (4, 4) = T_O_E(q) T_E_C: camera pose in the base frame (Eq. 21 inverted)."""
-        return self._camera_pose(as_array(q, "q", _VEC))
+        return self.camera_fk(as_array(q, "q", _VEC))
 
-    def _camera_pose(self, q: np.ndarray) -> np.ndarray:
+    def camera_fk(self, q: np.ndarray) -> np.ndarray:
+        """T_O_C (4, 4) at q: the forward kinematics of `camera_pose`, one Pinocchio pass.
+
+        Kernel: does not validate ``q``, which must be a finite float64 (6,) array [rad] (a
+        plant's own state, an IK solution).
+        """
         data = self._thread_data.data
         pin.forwardKinematics(self.model, data, q)
         return pin.updateFramePlacement(self.model, data, self._camera_id).homogeneous
@@ -368,7 +373,7 @@ class Arm:
             seeds = self._ik_seeds if q_near is None else np.vstack([ref, self._ik_seeds])
             raw = numerical_branches(self.model, self._thread_data.data, self._camera_id, T_O_C, seeds)
         solutions = select_branches(raw, self.q_min, self.q_max, ref)
-        solutions = solutions[[np.abs(self._camera_pose(q) - T_O_C).max() <= _IK_TOL for q in solutions]]
+        solutions = solutions[[np.abs(self.camera_fk(q) - T_O_C).max() <= _IK_TOL for q in solutions]]
         if solutions.shape[0] == 0:
             where = np.round(T_O_C[:3, 3], 4).tolist()
             why = (
@@ -395,7 +400,7 @@ class Arm:
             q = nearest_branch(self.ik_parameters, T_O_E, self._q_min_list, self._q_max_list, q_near.tolist())
             if q is not None:
                 q = np.array(q)
-                d = (self._camera_pose(q) - T_O_C).ravel()
+                d = (self.camera_fk(q) - T_O_C).ravel()
                 if d.dot(d) <= _IK_TOL**2 or np.abs(d).max() <= _IK_TOL:  # the first implies the second
                     return q
         return self.ik(T_O_C, q_near=q_near)[0]

@@ -235,17 +235,17 @@ class _Sensor:
             a.flags.writeable = False
         return Visibility(*flags)
 
-    def to_pixels(self, p: object) -> np.ndarray:
+    def to_pixels(self, features: object) -> np.ndarray:
         """Feature rows [m on the sensor] -> [px] through K of Eq. (6) (the stereo lenses share K)."""
-        p = _points(p, "p", len(self._lens_x) + 1)
+        p = _points(features, "features", len(self._lens_x) + 1)
         out = np.empty_like(p)
         out[:, :-1] = self._u_to_px(p[:, :-1], p[:, -1:])
         out[:, -1] = p[:, -1] / self.pixel_pitch + self.principal_point[1]
         return out
 
-    def from_pixels(self, p_px: object) -> np.ndarray:
+    def from_pixels(self, features_px: object) -> np.ndarray:
         """Inverse of `to_pixels`: feature rows [px] -> [m on the sensor]."""
-        p_px = _points(p_px, "p_px", len(self._lens_x) + 1)
+        p_px = _points(features_px, "features_px", len(self._lens_x) + 1)
         out = np.empty_like(p_px)
         out[:, -1] = (p_px[:, -1] - self.principal_point[1]) * self.pixel_pitch
         out[:, :-1] = (
@@ -293,14 +293,14 @@ class StereoCamera(_Sensor):
         """
         return cls(baseline=0.12, **_zed_intrinsics(preset, mode, frame_rate))
 
-    def triangulate(self, p: object, allow_behind: bool = False) -> np.ndarray:
+    def triangulate(self, features: object, allow_behind: bool = False) -> np.ndarray:
         """Inverse stereo map M^-1 of Eq. (C6)-(C8): points (n, 3) [m] from rows [u_l, u_r, v] [m].
 
         Raises:
             InvalidDisparityError: disparity u_r - u_l <= 0 (unless allow_behind), and always when it
                 is ~0 (|F b / d| > MAX_ABS_DEPTH).
         """
-        return triangulate_points(self, _points(p, "p"), allow_behind)
+        return triangulate_points(self, _points(features, "features"), allow_behind)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -337,13 +337,13 @@ class PinholeCamera(_Sensor):
             unbounded_view=True,
         )
 
-    def back_project(self, p: object, Z: object, allow_behind: bool = False) -> np.ndarray:
+    def back_project(self, features: object, Z: object, allow_behind: bool = False) -> np.ndarray:
         """Points (n, 3) [m] from rows [u, v] [m] and depths Z (n,) or scalar [m]: X = u Z / F, Y = v Z / F.
 
         Raises:
             PointBehindCameraError: as `project`.
         """
-        p = _points(p, "p", 2)
+        p = _points(features, "features", 2)
         Z = as_array(Z, "Z")
         Z = np.full(p.shape[0], float(Z)) if Z.ndim == 0 else as_array(Z, "Z", (p.shape[0],))
         _check_depth(Z, allow_behind)
@@ -394,13 +394,13 @@ def points_interaction_matrix(
     return np.array(out, dtype=float).reshape(P_C.shape[0] * (len(lens_x) + 1), 6)
 
 
-def triangulate_points(camera: StereoCamera, p: np.ndarray, allow_behind: bool) -> np.ndarray:
+def triangulate_points(camera: StereoCamera, features: np.ndarray, allow_behind: bool) -> np.ndarray:
     """Points (n, 3) [m] from stereo features (n, 3) [u_l, u_r, v] [m]: Eq. (C6)-(C8).
 
-    ``camera.triangulate`` without the argument check: ``p`` must be a finite float (n, 3)
+    ``camera.triangulate`` without the argument check: ``features`` must be a finite float (n, 3)
     array. The disparity is still checked (InvalidDisparityError, as ``camera.triangulate``).
     """
-    F, b, out = camera.focal_length, camera.baseline, []
+    F, b, out, p = camera.focal_length, camera.baseline, [], features
     d_min = F * b / MAX_ABS_DEPTH  # [m]
     for u_l, u_r, v in p.tolist():
         d = u_r - u_l  # disparity [m]

@@ -56,9 +56,11 @@ class FreeCameraPlant:
         """Camera pose T_O_C (4, 4) (a copy)."""
         return self._T.copy()
 
-    def signals(self) -> dict[str, np.ndarray]:
+    signal_names: tuple[str, ...] = ()
+
+    def signal_values(self, reading: None) -> tuple[np.ndarray, ...]:
         """Nothing beyond the camera pose, which every result records."""
-        return {}
+        return ()
 
     def apply(self, command: np.ndarray, dt: float) -> None:
         """T_O_C <- T_O_C exp(dt [xi]^) for the body twist ``command`` = [v; w] (6,) held over dt."""

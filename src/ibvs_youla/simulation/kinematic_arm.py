@@ -103,11 +103,13 @@ class KinematicArmPlant:
 
     def camera_pose(self) -> np.ndarray:
         """True camera pose T_O_C (4, 4) at q_true."""
-        return self.arm.camera_pose(self._q)
+        return self.arm.camera_fk(self._q)  # the kernel of camera_pose: the state is always finite
 
-    def signals(self) -> dict[str, np.ndarray]:
-        """``q`` (encoders), ``q_true``, ``dq``."""
-        return {"q": self._q - self.joint_offset, "q_true": self._q, "dq": self._dq}
+    signal_names = ("q", "q_true", "dq")
+
+    def signal_values(self, reading: JointReading) -> tuple[np.ndarray, ...]:
+        """Signals recorded at tick rate, in the order of ``signal_names``: encoders, true angles, speeds."""
+        return reading.q, self._q, self._dq
 
     def apply(self, command: np.ndarray, dt: float) -> None:
         """Hold ``command`` over ``dt``: a joint velocity or a position reference (see :meth:`use_input`)."""

@@ -33,6 +33,7 @@ import numpy as np
 from ..controllers.base import Controller
 from ..exceptions import (
     InvalidDisparityError,
+    InvalidParameterError,
     PointBehindCameraError,
     SimulationDivergedError,
     UnreachablePoseError,
@@ -56,7 +57,9 @@ class ServoLoop:
         ticks_per_frame: Ticks per camera frame.
         record_every: Keep every n-th tick sample (and the last).
         recorder: Receives the samples.
-        command_signals: Names under which each command along the chain is recorded.
+        command_signals: Names under which each command along the chain is recorded. The
+            recorder's ``signal_names`` are the plant's, these, then the controller's
+            declared signals (the keys of its first ``signals()``), in that order.
     """
 
     controller: Controller
@@ -84,12 +87,14 @@ class ServoLoop:
             with np.errstate(all="ignore"):
                 status = self._ticks(bar)
         except SimulationDivergedError as err:
-            err.partial = self.recorder.result(status="diverged", extra_metadata={"error": str(err)})
+            err.partial = self.recorder.result(
+                status="diverged", extra_metadata={"error": str(err), "phase_seconds": self.phase_seconds}
+            )
             raise
         finally:
             if bar is not None:
                 bar.close()
-        extra: dict[str, Any] = {"phase_seconds": self.phase_seconds}
+        extra: dict[str, Any] = {"phase_seconds": self.phase_seconds}  # set by _ticks, even on early stops
         if status != "complete":
             extra["error"] = self._reason
         return self.recorder.result(status=status, extra_metadata=extra)
@@ -98,49 +103,58 @@ class ServoLoop:
         controller, sensor, plant, chain, dt = self.controller, self.sensor, self.plant, self.chain, self.dt
         record, record_frame = self.recorder.record, self.recorder.record_frame
         n_ticks, every, record_every = self.n_ticks, self.ticks_per_frame, self.record_every
-        names = self.command_signals
+        n_declared = len(self.recorder.signal_names) - len(plant.signal_names) - len(self.command_signals)
+        declared_names = self.recorder.signal_names[-n_declared:] if n_declared else ()
         clock = time.perf_counter
         frame = None
-        phases = self.phase_seconds = {"frame": 0.0, "control": 0.0, "plant": 0.0}
+        frame_s = control_s = plant_s = 0.0  # phase times [s], summed over the run
         t_tick = clock()
-        for k in range(n_ticks + 1):
-            t = k * dt
-            reading = plant.reading()
-            is_frame = k % every == 0
-            if is_frame:
-                T_O_C = plant.camera_pose()
-                try:
-                    frame = sensor.measure(T_O_C, t)
-                    tic = clock()
-                    controller.update(frame, reading)
-                    elapsed = clock() - tic
-                except (PointBehindCameraError, InvalidDisparityError) as err:
-                    self._reason = f"t = {t:.6g} s: {err}"
-                    return "markers_lost"
-                except UnreachablePoseError as err:
-                    self._reason = f"t = {t:.6g} s: Eq. (62) failed: {err}"
-                    return "estimate_failed"
-                record_frame(t, frame.features, frame.visible, elapsed)
-            t_frame = clock()
-            command = controller.command(reading)
-            commands = [command]
-            for adapter in chain:
-                command = adapter(command, reading)
-                commands.append(command)
-            if k % record_every == 0 or k == n_ticks:
-                signals = plant.signals()
-                signals.update(zip(names, commands, strict=True))
-                signals.update(controller.signals())
-                pose = T_O_C if is_frame else plant.camera_pose()
-                record(t, pose, frame.features, frame.visible, signals)  # type: ignore[union-attr]
-            t_control = clock()
-            if k < n_ticks:
-                plant.apply(command, dt)
-            t_plant = clock()
-            phases["frame"] += t_frame - t_tick
-            phases["control"] += t_control - t_frame
-            phases["plant"] += t_plant - t_control
-            t_tick = t_plant
-            if bar is not None and k % 1000 == 0 and k:
-                bar.update(1000)
+        try:
+            for k in range(n_ticks + 1):
+                t = k * dt
+                reading = plant.reading()
+                is_frame = k % every == 0
+                if is_frame:
+                    T_O_C = plant.camera_pose()
+                    try:
+                        frame = sensor.measure(T_O_C, t)
+                        tic = clock()
+                        controller.update(frame, reading)
+                        elapsed = clock() - tic
+                    except (PointBehindCameraError, InvalidDisparityError) as err:
+                        self._reason = f"t = {t:.6g} s: {err}"
+                        return "markers_lost"
+                    except UnreachablePoseError as err:
+                        self._reason = f"t = {t:.6g} s: Eq. (62) failed: {err}"
+                        return "estimate_failed"
+                    record_frame(t, frame.features, frame.visible, elapsed)
+                t_frame = clock()
+                command = controller.command(reading)
+                commands = [command]
+                for adapter in chain:
+                    command = adapter(command, reading)
+                    commands.append(command)
+                if k % record_every == 0 or k == n_ticks:
+                    declared = controller.signals()
+                    if tuple(declared) != declared_names:  # same names, same order as declared first
+                        raise InvalidParameterError(
+                            "controller.signals()",
+                            sorted(declared),
+                            f"the names it declared first, {declared_names}",
+                        )
+                    pose = T_O_C if is_frame else plant.camera_pose()
+                    values = (*plant.signal_values(reading), *commands, *declared.values())
+                    record(t, pose, frame.features, frame.visible, values)  # type: ignore[union-attr]
+                t_control = clock()
+                if k < n_ticks:
+                    plant.apply(command, dt)
+                t_plant = clock()
+                frame_s += t_frame - t_tick
+                control_s += t_control - t_frame
+                plant_s += t_plant - t_control
+                t_tick = t_plant
+                if bar is not None and k % 1000 == 0 and k:
+                    bar.update(1000)
+        finally:  # also when a run stops early or diverges
+            self.phase_seconds = {"frame": frame_s, "control": control_s, "plant": plant_s}
         return "complete"

@@ -119,6 +119,7 @@ class ArmPlant:
         self._x_high = np.concatenate([self._q_max + margin, self._dq_bound])
         self._k = np.empty((4, 2 * n))  # RK4 stage derivatives of `apply`
         self._aba = arm.aba  # the kernel of arm.forward_dynamics
+        self._camera_fk = arm.camera_fk  # the kernel of arm.camera_pose: the state is always finite
         q_encoder = np.zeros(n) if q_encoder is None else q_encoder
         self.reset(q_encoder, np.zeros(n) if dq is None else dq, t=t)
 
@@ -152,8 +153,12 @@ class ArmPlant:
         return self._dq.copy()
 
     def camera_pose(self) -> np.ndarray:
-        """True camera pose ``T_O_C`` (4, 4): ``arm.camera_pose(q_true)``."""
-        return self.arm.camera_pose(self._q)
+        """True camera pose ``T_O_C`` (4, 4): ``arm.camera_pose(q_true)``.
+
+        The state is the plant's own and finite (checked after every step): the arm's
+        forward-kinematics kernel is called without validation.
+        """
+        return self._camera_fk(self._q)
 
     # ------------------------------------------------------------------ servo-loop role
     name = "dynamic"
@@ -202,9 +207,11 @@ class ArmPlant:
         self.t += dt
         self.last_tau = tau
 
-    def signals(self) -> dict[str, np.ndarray]:
-        """Plant signals recorded at tick rate: ``q`` (encoders), ``q_true``, ``dq``."""
-        return {"q": self._q - self.joint_offset, "q_true": self._q, "dq": self._dq}
+    signal_names = ("q", "q_true", "dq")
+
+    def signal_values(self, reading: JointReading) -> tuple[np.ndarray, ...]:
+        """Signals recorded at tick rate, in the order of ``signal_names``: encoders, true angles, speeds."""
+        return reading.q, self._q, self._dq
 
     # ------------------------------------------------------------------ dynamics
     def step(self, tau: Any, dt: float) -> np.ndarray:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -305,15 +306,16 @@ class ResultRecorder:
     """Preallocated buffers that a servo loop fills, one tick sample and one frame at a time.
 
     Appending is amortised O(1): buffers are allocated for ``capacity`` samples and doubled
-    when a run records more. The named signals are fixed by the first :meth:`record` call
-    (their names and shapes). :meth:`result` copies only the filled part, so it can be
-    called at any time, e.g. when a run diverges.
+    when a run records more. The named signals are given up front; their shapes are fixed
+    by the first :meth:`record` call. :meth:`result` copies only the filled part, so it can
+    be called at any time, e.g. when a run diverges.
 
     Args:
         feature_target: Target features (m,).
         camera_pose_target: Target camera pose ``T_O_C`` (4, 4).
         capacity: Expected number of tick samples (>= 1).
         n_points: Number of markers n (visibility columns).
+        signal_names: Names of the signals :meth:`record` receives, in its order.
         metadata: JSON-serialisable dict copied into the result.
     """
 
@@ -324,15 +326,20 @@ class ResultRecorder:
         capacity: int,
         *,
         n_points: int = 3,
+        signal_names: tuple[str, ...] = (),
         metadata: dict[str, Any] | None = None,
     ) -> None:
         if isinstance(capacity, bool) or not isinstance(capacity, (int, np.integer)) or capacity < 1:
             raise InvalidParameterError("capacity", capacity, "an integer >= 1")
         if isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer)) or n_points < 1:
             raise InvalidParameterError("n_points", n_points, "an integer >= 1")
+        names = tuple(signal_names)
+        if len(set(names)) != len(names) or not all(isinstance(n, str) and n for n in names):
+            raise InvalidParameterError("signal_names", names, "distinct non-empty names")
         self.feature_target = as_array(feature_target, "feature_target", (None,)).copy()
         self.camera_pose_target = as_pose(camera_pose_target, "camera_pose_target").copy()
         self.metadata = _normalise_metadata(metadata)
+        self.signal_names = names
         m, n = self.feature_target.shape[0], int(n_points)
         self._tick = {
             "t": np.empty(int(capacity)),
@@ -340,16 +347,12 @@ class ResultRecorder:
             "features": np.empty((int(capacity), m)),
             "visible": np.empty((int(capacity), n), dtype=bool),
         }
-        self._signals: dict[str, np.ndarray] | None = None
+        self._signals: list[np.ndarray] | None = None
         self._n = 0
-        frames = max(16, int(capacity))
-        self._frame = {
-            "frame_t": np.empty(frames),
-            "frame_features": np.empty((frames, m)),
-            "frame_visible": np.empty((frames, n), dtype=bool),
-            "update_time": np.empty(frames),
-        }
-        self._m = 0
+        # The frame log is appended to lists (a list append costs a tenth of a numpy row write) and
+        # stacked in `result`: the features and visibility arrays of a frame are new arrays each
+        # frame (the sensor's), so keeping references is safe.
+        self._frames: tuple[list[float], list[Any], list[Any], list[float]] = ([], [], [], [])
 
     def __len__(self) -> int:
         return self._n
@@ -360,48 +363,45 @@ class ResultRecorder:
             buffers[name] = np.concatenate([buf, np.empty_like(buf)])
 
     def record(
-        self, t: float, camera_pose: np.ndarray, features: np.ndarray, visible: Any, signals: dict[str, Any]
+        self, t: float, camera_pose: np.ndarray, features: np.ndarray, visible: Any, values: Sequence[Any]
     ) -> None:
-        """Append one tick sample; ``signals`` maps names to arrays of fixed shapes (copied).
+        """Append one tick sample; ``values`` are the signals of ``signal_names``, in order (copied).
 
         Raises:
-            InvalidParameterError: ``signals`` names differ from the first sample's.
+            InvalidParameterError: as many values as names, or not.
         """
         i = self._n
-        if i == self._tick["t"].shape[0]:
-            self._grown(self._tick)
-            if self._signals is not None:
-                self._grown(self._signals)
-        if self._signals is None:
-            capacity = self._tick["t"].shape[0]
-            self._signals = {
-                name: np.empty((capacity, *np.shape(value)), dtype=float) for name, value in signals.items()
-            }
-        elif signals.keys() != self._signals.keys():
-            raise InvalidParameterError(
-                "signals", sorted(signals), f"the names of the first sample {sorted(self._signals)}"
-            )
         tick = self._tick
+        if i == tick["t"].shape[0]:
+            self._grown(tick)
+            if self._signals is not None:
+                self._signals = [np.concatenate([buf, np.empty_like(buf)]) for buf in self._signals]
+        if len(values) != len(self.signal_names):
+            raise InvalidParameterError(
+                "values", f"{len(values)} signals", f"one per name of {self.signal_names}"
+            )
+        if self._signals is None:
+            capacity = tick["t"].shape[0]
+            self._signals = [np.empty((capacity, *np.shape(value)), dtype=float) for value in values]
         tick["t"][i] = t
         tick["camera_pose"][i] = camera_pose
         tick["features"][i] = features
         tick["visible"][i] = visible
-        bufs = self._signals
-        for name, value in signals.items():
-            bufs[name][i] = value
+        for buf, value in zip(self._signals, values):  # noqa: B905 (lengths checked above)
+            buf[i] = value
         self._n = i + 1
 
     def record_frame(self, t: float, features: np.ndarray, visible: Any, update_time: float) -> None:
-        """Append one camera frame: capture time [s], features, visibility, control-update time [s]."""
-        j = self._m
-        if j == self._frame["frame_t"].shape[0]:
-            self._grown(self._frame)
-        frame = self._frame
-        frame["frame_t"][j] = t
-        frame["frame_features"][j] = features
-        frame["frame_visible"][j] = visible
-        frame["update_time"][j] = update_time
-        self._m = j + 1
+        """Append one camera frame: capture time [s], features, visibility, control-update time [s].
+
+        ``features`` and ``visible`` are kept by reference until :meth:`result`: pass arrays
+        that are not modified afterwards (the sensor makes new ones every frame).
+        """
+        frame_t, frame_features, frame_visible, update_times = self._frames
+        frame_t.append(t)
+        frame_features.append(features)
+        frame_visible.append(visible)
+        update_times.append(update_time)
 
     def result(
         self, *, status: str = "complete", extra_metadata: dict[str, Any] | None = None
@@ -414,13 +414,21 @@ class ResultRecorder:
         """
         if status not in STATUSES:
             raise InvalidParameterError("status", status, " or ".join(repr(s) for s in STATUSES))
-        n, m = self._n, self._m
+        n = self._n
+        frame_t, frame_features, frame_visible, update_times = self._frames
+        m, n_features, n_points = len(frame_t), self.feature_target.shape[0], self._tick["visible"].shape[1]
         metadata = {**self.metadata, **_normalise_metadata(extra_metadata), "status": status}
         return SimulationResult(
             **{name: buf[:n].copy() for name, buf in self._tick.items()},
             feature_target=self.feature_target.copy(),
             camera_pose_target=self.camera_pose_target.copy(),
-            signals={name: buf[:n].copy() for name, buf in (self._signals or {}).items()},
-            **{name: buf[:m].copy() for name, buf in self._frame.items()},
+            signals={
+                name: buf[:n].copy()
+                for name, buf in zip(self.signal_names, self._signals or (), strict=False)
+            },
+            frame_t=np.array(frame_t, dtype=float),
+            frame_features=np.array(frame_features, dtype=float).reshape(m, n_features),
+            frame_visible=np.array(frame_visible, dtype=bool).reshape(m, n_points),
+            update_time=np.array(update_times, dtype=float),
             metadata=metadata,
         )

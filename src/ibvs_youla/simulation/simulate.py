@@ -189,6 +189,7 @@ def simulate(
         world.T_O_C_target,
         n_ticks // record_every + 2,
         n_points=sensor.n_points,
+        signal_names=(*world.plant.signal_names, *command_signals, *ctrl.signals()),
         metadata=metadata,
     )
     loop = ServoLoop(

@@ -226,14 +226,17 @@ class YoulaController(Controller):
         self._q_ff = np.zeros(n)
         self._q_estimate: np.ndarray | None = None
         self._first_frame = True
+        # per-frame hot path: options and kernels looked up once per run
+        self._from_image, self._prior_previous = s.estimate_from_image, s.branch_prior == "previous"
+        self._q_from_image, self._image_jacobian = self._eye.q_from_image, self._eye.image_jacobian
+        self._advance = self._outer.advance
 
     def update(self, frame: CameraFrame, reading: JointReading | None) -> None:
         """One camera frame: q_fb = K(z)[J^+ e] (Eq. (53)-(62))."""
         features, q_enc = frame.features, reading.q  # type: ignore[union-attr]
         e = self._feature_target - features
         if self.adaptive:
-            J = self._eye.image_jacobian(self._configuration_estimate(features, q_enc))
-            self._q_fb = self._outer.advance(e, J)
+            self._q_fb = self._advance(e, self._image_jacobian(self._configuration_estimate(features, q_enc)))
         else:
             if self._first_frame:
                 s = self.settings
@@ -248,12 +251,10 @@ class YoulaController(Controller):
 
     def _configuration_estimate(self, features: np.ndarray, q_enc: np.ndarray) -> np.ndarray:
         """Eq. (62): q~ from the image (the IK branch nearest the prior), or the encoders."""
-        s = self.settings
-        if not s.estimate_from_image:
+        if not self._from_image:
             return q_enc
-        use_previous = s.branch_prior == "previous" and self._q_estimate is not None
-        q_near = self._q_estimate if use_previous else q_enc
-        self._q_estimate = self._eye.q_from_image(features, q_near)
+        q_near = self._q_estimate if self._prior_previous and self._q_estimate is not None else q_enc
+        self._q_estimate = self._q_from_image(features, q_near)
         return self._q_estimate
 
     def command(self, reading: JointReading | None) -> np.ndarray:

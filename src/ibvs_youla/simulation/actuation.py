@@ -97,14 +97,13 @@ class InnerLoopActuator:
     output_type = CommandType.JOINT_TORQUE
 
     def __init__(self, arm: Any, tau_in: float, dt: float) -> None:
-        self._arm = arm
         self._inner = InnerLoopDesign(tau_in).discrete_controller(dt, arm.nq)
+        self._step, self._rnea = self._inner.step, arm.rnea  # bound once: called at every tick
 
     def __call__(self, q_ref: np.ndarray, reading: JointReading) -> np.ndarray:
         """Tau = M(q) G_C(z)[q_ref - q] + h(q, dq) (n,) [N m], from one RNEA pass."""
         q, dq = reading.q, reading.dq
-        v = self._inner.step(q_ref - q)
-        return self._arm.rnea(q, dq, v)
+        return self._rnea(q, dq, self._step(q_ref - q))
 
 
 def actuation_chain(

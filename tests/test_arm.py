@@ -1,4 +1,4 @@
-"""Arm: Table 1 forward kinematics, LOCAL camera Jacobian, Eq. (29)-(32) dynamics, loading, input errors."""
+"""Arm: Table 1 kinematics, LOCAL camera Jacobian, Eq. (29)-(32) dynamics, derived arms, loading, errors."""
 
 from __future__ import annotations
 
@@ -149,6 +149,99 @@ def test_with_inertia_scale_scales_links_not_actuators(arm):
     assert sum(i.mass for i in arm.model.inertias) == pytest.approx(412.17)  # original untouched
     with pytest.raises(InvalidParameterError):
         arm.with_inertia_scale(0.0)
+
+
+# ----------------------------------------------------------------------------------------- hand-eye belief
+RZ_PI = np.diag([-1.0, -1.0, 1.0, 1.0])  # nominal T_E_C (ERRATA 2)
+
+
+def _hand_eye(angle_deg, axis, t_mm, nominal=RZ_PI):
+    """``nominal`` followed by a rotation of ``angle_deg`` about ``axis`` and a shift ``t_mm`` in {C}."""
+    delta = np.eye(4)
+    delta[:3, :3] = pin.exp3(np.radians(angle_deg) * np.asarray(axis, float) / np.linalg.norm(axis))
+    delta[:3, 3] = np.asarray(t_mm, float) / 1000.0
+    return nominal @ delta
+
+
+T_E_C_BELIEF = _hand_eye(1.0, [1, 0, 0], [2, -1, 3])  # sqrt(14) = 3.74 mm, 1 deg
+
+
+def test_with_hand_eye_moves_the_camera_frame_only(arm):
+    placement = arm.model.frames[arm.model.getFrameId("camera")].placement.homogeneous.copy()
+    belief = arm.with_hand_eye(T_E_C_BELIEF)
+    np.testing.assert_allclose(belief.T_E_C, T_E_C_BELIEF, rtol=0, atol=1e-15)
+    assert belief.name == "ABB IRB 4600-45/2.05 (paper actuator) (T_E_C moved 3.74 mm, 1 deg)"
+    assert repr(belief) == f"Arm({belief.name!r}, nq=6, ik=closed-form)"
+    assert belief.ik_parameters == arm.ik_parameters
+    for name in ("q_min", "q_max", "dq_max", "tau_max", "armature", "damping"):
+        np.testing.assert_array_equal(getattr(belief, name), getattr(arm, name))
+    rng = np.random.default_rng(SEED + 5)
+    for q in random_q(arm, rng, 20):
+        np.testing.assert_allclose(
+            belief.camera_pose(q), belief.flange_pose(q) @ T_E_C_BELIEF, rtol=0, atol=1e-12
+        )
+        np.testing.assert_array_equal(belief.flange_pose(q), arm.flange_pose(q))
+        np.testing.assert_array_equal(belief.mass_matrix(q), arm.mass_matrix(q))  # dynamics untouched
+        np.testing.assert_allclose(arm.camera_pose(q), arm.flange_pose(q) @ RZ_PI, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(arm.T_E_C, RZ_PI, rtol=0, atol=1e-15)  # the original arm is unchanged
+    np.testing.assert_array_equal(
+        arm.model.frames[arm.model.getFrameId("camera")].placement.homogeneous, placement
+    )
+    assert arm.name == "ABB IRB 4600-45/2.05 (paper actuator)"
+
+
+def test_with_hand_eye_ik_and_jacobian_follow_the_new_camera(arm):
+    belief = arm.with_hand_eye(_hand_eye(3.0, [1, -2, 0.5], [10, 5, -20]))
+    rng = np.random.default_rng(SEED + 6)
+    for q in random_q(arm, rng, 20):
+        T_O_C = belief.camera_pose(q)
+        wrapped = np.angle(np.exp(1j * (belief.ik(T_O_C) - q)))  # without q_near: axes 4, 6 in (-pi, pi]
+        assert np.abs(wrapped).max(axis=1).min() <= 1e-9
+        assert np.abs(belief.ik(T_O_C, q_near=q)[0] - q).max() <= 1e-9
+        assert np.abs(belief.ik_nearest(T_O_C, q) - q).max() <= 1e-9
+        J = belief.camera_jacobian(q)
+        assert np.linalg.norm(J - _fd_local_jacobian(belief, q)) <= 1e-6 * np.linalg.norm(J)
+        assert np.linalg.norm(J - arm.camera_jacobian(q)) > 1e-3 * np.linalg.norm(J)  # it moved
+
+
+def test_with_hand_eye_composes_with_with_inertia_scale(arm):
+    T_E_C = _hand_eye(2.0, [0, 0, 1], [0, 0, 5])
+    heavy_belief = arm.with_inertia_scale(1.5).with_hand_eye(T_E_C)
+    belief_heavy = arm.with_hand_eye(T_E_C).with_inertia_scale(1.5)
+    assert (
+        heavy_belief.name == "ABB IRB 4600-45/2.05 (paper actuator) (inertia x1.5) (T_E_C moved 5 mm, 2 deg)"
+    )
+    q = random_q(arm, np.random.default_rng(SEED + 7), 1)[0]
+    for composed in (heavy_belief, belief_heavy):
+        np.testing.assert_allclose(composed.gravity(q), 1.5 * arm.gravity(q), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(composed.camera_pose(q), arm.flange_pose(q) @ T_E_C, rtol=0, atol=1e-12)
+        assert composed.ik_parameters == arm.ik_parameters
+
+
+def test_with_hand_eye_on_a_numerical_ik_arm():
+    ur5 = Arm.from_urdf(example_robot_data_urdf("ur_description/urdf/ur5_robot.urdf"), camera_frame="tool0")
+    T_E_C = _hand_eye(5.0, [0, 1, 1], [20, 0, 30], nominal=ur5.T_E_C)
+    belief = ur5.with_hand_eye(T_E_C)
+    assert belief.ik_parameters is None
+    q = random_q(ur5, np.random.default_rng(SEED + 8), 1)[0]
+    np.testing.assert_allclose(belief.camera_pose(q), ur5.flange_pose(q) @ T_E_C, rtol=0, atol=1e-12)
+    solutions = belief.ik(belief.camera_pose(q), q_near=q)
+    assert np.abs(solutions[0] - q).max() <= 1e-6  # damped Gauss-Newton from q_near, FK residual <= 1e-9
+
+
+@pytest.mark.parametrize(
+    ("T_E_C", "message"),
+    [
+        (np.diag([1.01, 1.0, 1.0, 1.0]), "rotation matrix"),  # scaled, not rigid
+        (np.diag([1.0, 1.0, -1.0, 1.0]), "rotation matrix"),  # a reflection
+        (np.eye(3), "shape"),
+        (np.full((4, 4), np.nan), "finite"),
+    ],
+)
+def test_with_hand_eye_rejects_non_rigid_transforms(arm, T_E_C, message):
+    with pytest.raises(InvalidArrayError, match=message) as info:
+        arm.with_hand_eye(T_E_C)
+    assert "T_E_C" in str(info.value)
 
 
 def test_within_limits(arm):

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from .._geometry import pose_error_mm_deg
 from .._validation import as_array, as_pose, non_negative, positive
 from ..exceptions import InvalidArrayError, ModelLoadError, UnreachablePoseError
 from ._resources import check_chain, frame_id, load_urdf_model, urdf_path
@@ -75,8 +76,9 @@ class Arm:
     Build it with :meth:`irb4600`, :meth:`from_urdf`, or ``Arm(model, camera_frame=...,
     flange_frame=..., armature=..., damping=..., name=...)`` from a Pinocchio model of six
     revolute joints in series (same meaning as in :meth:`from_urdf`). The model is copied,
-    never mutated; do not mutate :attr:`model` either (use :meth:`with_inertia_scale`).
-    Safe to share between threads (one Pinocchio ``Data`` per thread); pickles.
+    never mutated; do not mutate :attr:`model` either (use :meth:`with_inertia_scale` or
+    :meth:`with_hand_eye`). Safe to share between threads (one Pinocchio ``Data`` per
+    thread); pickles.
 
     Attributes:
         model: Pinocchio model (``model.armature`` set, ``model.damping`` zero).
@@ -210,13 +212,44 @@ class Arm:
             inertia = model.inertias[i]
             scaled = pin.Inertia(inertia.mass * factor, inertia.lever.copy(), inertia.inertia * factor)
             model.inertias[i] = scaled
+        return self._with_model(model, f"{self.name} (inertia x{factor:g})")
+
+    def with_hand_eye(self, T_E_C: Any) -> Arm:
+        """A new Arm whose camera {C} sits at ``T_E_C`` in the flange frame {E}, all else equal.
+
+        A controller's belief about the hand-eye calibration (Eq. 18-20; nominal T_E_C = Rz(pi),
+        ERRATA 2), perturbed. Only the Pinocchio camera frame moves, to T_E_C after the flange
+        frame on the last joint: :meth:`camera_pose` = T_O_E(q) T_E_C, :meth:`camera_jacobian`
+        and :meth:`ik` follow it; links, inertias (the camera's, merged into the last link),
+        limits, armature, damping and IK parameters are those of this arm, whose model is not
+        touched. The name gains the move of {C}, e.g. ``(T_E_C moved 2 mm, 0.5 deg)``.
+
+        Args:
+            T_E_C: Camera pose in the flange frame (4, 4), rigid within 1e-6 (its rotation is
+                projected onto SO(3), so the camera frame is rigid to round-off).
+
+        Raises:
+            InvalidArrayError: ``T_E_C`` is not a finite rigid (4, 4) transform.
+        """
+        T_E_C = as_pose(T_E_C, "T_E_C").copy()
+        U, _, Vt = np.linalg.svd(T_E_C[:3, :3])
+        T_E_C[:3, :3] = U @ Vt
+        moved_mm, moved_deg = pose_error_mm_deg(self.T_E_C, T_E_C)
+        model = self.model.copy()
+        camera = model.frames[self._camera_id]
+        camera.placement = model.frames[self._flange_id].placement * pin.SE3(T_E_C)  # both on joint 6
+        model.frames[self._camera_id] = camera
+        return self._with_model(model, f"{self.name} (T_E_C moved {moved_mm:.3g} mm, {moved_deg:.3g} deg)")
+
+    def _with_model(self, model: pin.Model, name: str) -> Arm:
+        """An Arm on ``model`` (a modified copy of :attr:`model`) with this arm's frames, actuators and IK."""
         arm = Arm(
             model,
             camera_frame=self.camera_frame,
             flange_frame=self.flange_frame,
             armature=self.armature,
             damping=self.damping,
-            name=f"{self.name} (inertia x{factor:g})",
+            name=name,
             source=self.urdf_path,
         )
         if arm.ik_parameters is not None and self.ik_parameters is not None:

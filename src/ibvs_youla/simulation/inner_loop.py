@@ -3,9 +3,12 @@
 Section 6.1 designs the inner loop on the linear model q'' = v (Eq. (34)) obtained by
 feedback linearization u = M(q) v + h(q, dq) (Eq. (33)), and promises the closed loop
 T = (3 tau s + 1) / (tau s + 1)^3 (Eq. (41), (46)). :func:`inner_step_response` runs
-the discrete controller against the full Pinocchio dynamics (RK4, torque held), so
-the promise can be checked, and the cost of an imperfect model studied
-(``model_inertia_scale``).
+that loop against the full Pinocchio dynamics, so the promise can be checked and the
+cost of an imperfect model studied (``model_inertia_scale``). It is built from the
+servo loop's own parts: the inner-loop adapter
+:class:`~ibvs_youla.simulation.actuation.InnerLoopActuator` (Eq. (33)-(46), the only
+implementation of them) drives the dynamic-arm plant
+:class:`~ibvs_youla.simulation.plant.ArmPlant` (RK4, torque held).
 """
 
 from __future__ import annotations
@@ -15,8 +18,8 @@ from typing import Any
 import numpy as np
 
 from .._validation import as_array, positive
-from ..control.inner import InnerLoopDesign
 from ..model.arm import Arm
+from .actuation import InnerLoopActuator
 from .plant import ArmPlant
 
 __all__ = ["inner_step_response"]
@@ -35,7 +38,8 @@ def inner_step_response(
     """Joint response to a step of the reference q_ref = q0 + step at t = 0.
 
     The arm starts at rest at ``q0`` with the controller at rest (gravity is held by
-    h(q, dq) of the feedback linearization).
+    h(q, dq) of the feedback linearization). At every sample the actuator turns the
+    encoder reading into a torque, which the plant holds over one step ``dt``.
 
     Args:
         arm: The plant (and, unless ``model_inertia_scale`` != 1, the controller's model).
@@ -55,7 +59,7 @@ def inner_step_response(
     duration = positive(duration, "duration", unit="s")
     dt = positive(dt, "dt", unit="s")
     model = arm if model_inertia_scale == 1.0 else arm.with_inertia_scale(model_inertia_scale)
-    controller = InnerLoopDesign(tau_in).discrete_controller(dt, arm.nq)
+    actuator = InnerLoopActuator(model, tau_in, dt)
     plant = ArmPlant(arm, q_encoder=q0)
     n = round(duration / dt)
     t = np.arange(n + 1) * dt
@@ -63,10 +67,9 @@ def inner_step_response(
     tau = np.empty((n + 1, arm.nq))
     q_ref = q0 + step
     for k in range(n + 1):
-        qk, dqk = plant.q_encoder, plant.dq
-        v = controller.step(q_ref - qk)
-        tau[k] = model.mass_matrix(qk) @ v + model.nonlinear_effects(qk, dqk)
-        q[k] = qk
+        reading = plant.reading()
+        tau[k] = actuator(q_ref, reading)
+        q[k] = reading.q
         if k < n:
             plant.step(tau[k], dt)
     return t, q, tau

@@ -9,6 +9,7 @@ import pytest
 from matplotlib.figure import Figure
 
 from ibvs_youla.analysis import plots
+from ibvs_youla.controllers import CommandType, Controller
 from ibvs_youla.simulation.results import SimulationResult
 
 N = 40
@@ -171,3 +172,134 @@ def test_plot_design_draws_python_control_responses():
     np.testing.assert_allclose(pz.lines[0].get_xdata(), -100.0, rtol=1e-4)  # triple pole at -1/tau
     np.testing.assert_allclose(pz.lines[0].get_ydata(), 0.0, atol=0)
     np.testing.assert_allclose(pz.lines[1].get_xdata(), -100.0 / 3.0, rtol=1e-9)  # zero at -1/(3 tau)
+
+
+# --------------------------------------------------------------- any markers, either camera
+class ConstantTwist(Controller):
+    """The same camera twist [v; w] in {C} at every frame."""
+
+    command_type = CommandType.CAMERA_TWIST
+    name = "constant-twist"
+
+    def __init__(self, twist):
+        self.twist = np.asarray(twist, float)
+
+    def command(self, reading):
+        return self.twist
+
+
+@pytest.fixture(scope="module")
+def four_marker_runs():
+    """0.2 s free-camera runs (no joint signals) with four markers: monocular normalized, stereo ZED 2."""
+    import ibvs_youla as iy
+
+    markers = np.array([[-0.2, -0.1, 2.0], [0.2, -0.1, 2.1], [0.15, 0.2, 1.9], [-0.1, 0.15, 2.2]])
+    target = np.eye(4)
+    target[:3, 3] = (0.05, -0.02, 0.1)  # [m] so the image error is not zero at the start
+    scenario = iy.Scenario.free_camera(np.eye(4), target, markers)
+    runs = {}
+    for layout, camera in (("monocular", iy.PinholeCamera.normalized()), ("stereo", iy.StereoCamera.zed2())):
+        twist = ConstantTwist([0.01, 0.0, 0.0, 0.0, 0.0, 0.1])
+        run = iy.simulate(scenario, twist, duration=0.2, plant="free-camera", camera=camera)
+        runs[layout] = run, camera
+    return runs
+
+
+def test_four_monocular_markers_in_normalized_coordinates(four_marker_runs, tmp_path):
+    run, camera = four_marker_runs["monocular"]
+    assert run.features.shape[1] == 8 and run.n_points == 4 and "q" not in run.signals
+    figures = plots.plot_result(run, camera=camera)
+    assert tuple(figures) == ("image_coordinates", "feature_error_norm", "image_plane")  # no joints
+
+    coordinates = figures["image_coordinates"].axes
+    assert len(coordinates) == 8  # 4 markers x (x, y)
+    for k, ax in enumerate(coordinates):  # unitless: drawn unscaled
+        np.testing.assert_array_equal(ax.lines[0].get_ydata(), run.features[:, k])
+        np.testing.assert_array_equal(ax.lines[1].get_ydata(), [run.feature_target[k]] * 2)
+    assert [ax.get_ylabel() for ax in coordinates[-2:]] == ["x4 [normalized]", "y4 [normalized]"]
+
+    (error,) = figures["feature_error_norm"].axes
+    assert len(error.lines) == 1 + 4 and error.get_ylabel() == "||e|| [normalized]"
+    e = run.feature_error
+    for i in range(4):
+        np.testing.assert_allclose(
+            error.lines[1 + i].get_ydata(),
+            np.linalg.norm(e[:, 2 * i : 2 * i + 2], axis=1),
+            rtol=1e-15,
+            atol=0,
+        )
+    assert error.lines[0].get_label() == "||e|| (8 coordinates)"
+
+    (image,) = figures["image_plane"].axes  # one image for one lens
+    assert len(image.lines) == 3 * 4 and len(image.patches) == 0  # nominal sensor: no outline
+    for i in range(4):
+        np.testing.assert_array_equal(image.lines[i].get_xdata(), run.features[:, 2 * i])
+        np.testing.assert_array_equal(image.lines[i].get_ydata(), run.features[:, 2 * i + 1])
+        np.testing.assert_array_equal(image.lines[8 + i].get_xdata(), [run.feature_target[2 * i]])
+    assert (image.get_xlabel(), image.get_ylabel()) == ("x [normalized]", "y [normalized]")
+
+    paths = plots.save_result_figures(run, tmp_path, camera=camera)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(f"{name}.png" for name in figures)
+    assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in paths.values())
+
+
+def test_four_stereo_markers_in_mm_on_both_lenses(four_marker_runs, tmp_path):
+    run, camera = four_marker_runs["stereo"]
+    assert run.features.shape[1] == 12 and run.n_points == 4
+    figures = plots.plot_result(run, camera=camera)
+    assert tuple(figures) == ("image_coordinates", "feature_error_norm", "image_plane")
+
+    coordinates = figures["image_coordinates"].axes
+    assert len(coordinates) == 12  # 4 markers x (u_l, u_r, v): the 4th marker is drawn
+    np.testing.assert_allclose(coordinates[11].lines[0].get_ydata(), 1e3 * run.features[:, 11], rtol=1e-15)
+    assert [ax.get_ylabel() for ax in coordinates[-3:]] == ["ul4 [mm]", "ur4 [mm]", "v4 [mm]"]
+
+    (error,) = figures["feature_error_norm"].axes
+    assert len(error.lines) == 1 + 4 and error.get_ylabel() == "||e|| [m on the sensor]"
+    np.testing.assert_allclose(
+        error.lines[4].get_ydata(), np.linalg.norm(run.feature_error[:, 9:12], axis=1), rtol=1e-15, atol=0
+    )
+
+    image = figures["image_plane"].axes
+    assert len(image) == 2
+    w, h = 1e3 * camera.sensor_width, 1e3 * camera.sensor_height
+    for col, ax in enumerate(image):  # col 0: u_l, col 1: u_r
+        assert len(ax.lines) == 3 * 4 and len(ax.patches) == 1
+        np.testing.assert_array_equal(ax.lines[3].get_xdata(), 1e3 * run.features[:, 9 + col])
+        np.testing.assert_array_equal(ax.lines[3].get_ydata(), 1e3 * run.features[:, 11])
+        np.testing.assert_array_equal(ax.lines[4 + 3].get_xdata(), [1e3 * run.features[0, 9 + col]])
+        assert (ax.patches[0].get_width(), ax.patches[0].get_height()) == pytest.approx((w, h), rel=1e-15)
+    assert [ax.get_xlabel() for ax in image] == ["u_l [mm]", "u_r [mm]"]
+
+    paths = plots.save_result_figures(run, tmp_path, camera=camera)
+    assert len(paths) == 3 and all(p.stat().st_size > 10_000 for p in paths.values())
+
+
+def test_monocular_default_camera_is_one_zed2_lens_in_mm(four_marker_runs):
+    from ibvs_youla.model.camera import PinholeCamera
+
+    run, _ = four_marker_runs["monocular"]
+    (ax,) = plots.plot_image_plane(run).axes
+    lens = PinholeCamera.zed2()
+    assert ax.get_xlabel() == "u [mm]"
+    np.testing.assert_array_equal(ax.lines[0].get_xdata(), 1e3 * run.features[:, 0])
+    assert ax.patches[0].get_width() == pytest.approx(1e3 * lens.sensor_width, rel=1e-15)
+
+
+def test_image_figures_reject_a_camera_or_features_of_another_layout(four_marker_runs, result):
+    from ibvs_youla.exceptions import InvalidArrayError, InvalidParameterError
+    from ibvs_youla.model.camera import StereoCamera
+
+    run, _ = four_marker_runs["monocular"]
+    with pytest.raises(InvalidParameterError, match="2 coordinates per marker"):
+        plots.plot_image_plane(run, StereoCamera.zed2())
+    odd = SimulationResult(  # 9 coordinates for 4 markers
+        t=result.t,
+        camera_pose=result.camera_pose,
+        camera_pose_target=result.camera_pose_target,
+        features=result.features,
+        feature_target=result.feature_target,
+        visible=np.ones((N, 4), dtype=bool),
+    )
+    with pytest.raises(InvalidArrayError, match="9 coordinates for 4 markers"):
+        plots.plot_image_coordinates(odd)

@@ -5,13 +5,21 @@ and returns a matplotlib ``Figure``):
 
 * :func:`plot_joint_angles` — six encoder angles [deg] with the goal ``q_target - d``
   dashed (ERRATA 14);
-* :func:`plot_image_coordinates` — the nine features ``u_l, u_r, v`` of each marker
-  [mm on the sensor] with their targets dashed (Eq. (9)-(11), (24));
+* :func:`plot_image_coordinates` — every feature coordinate of each marker (``u_l, u_r,
+  v`` for a stereo camera, Eq. (9)-(11), (24); ``u, v`` for a monocular one) with its
+  target dashed;
 * :func:`plot_feature_error_norm` — ``||e||`` and the per-marker norms on a log scale;
-* :func:`plot_image_plane` — u against v for the left and right lenses, with the
-  sensor outline (+-w/2, +-h/2), the start (circle) and the target (cross) of each marker;
+* :func:`plot_image_plane` — u against v in each lens (left and right for a stereo
+  camera, one image for a monocular one), with the sensor outline (+-w/2, +-h/2), the
+  start (circle) and the target (cross) of each marker;
 * :func:`plot_joint_speeds_torques` — joint speeds [deg/s] and torques [N m] with the
   arm's limits +-dq_max, +-tau_max dashed (ERRATA 11, 16).
+
+The image figures work for any number n of markers and read the layout from the result:
+``result.n_points`` markers with ``features.shape[1] // n_points`` coordinates each (3:
+stereo, 2: monocular). Image coordinates are drawn in mm on the sensor, or as they are
+(unitless x = X/Z, y = Y/Z) for a normalized camera (``PinholeCamera.normalized()``: no
+field-of-view limit, focal length 1), which the image figures take as ``camera``.
 
 :func:`plot_result` returns them all by name and :func:`save_result_figures` writes
 them as PNG files. :func:`plot_design` draws Bode magnitude and phase, step responses
@@ -25,18 +33,19 @@ object. In a notebook, ``display(fig)`` shows one.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .paper_figures import FEATURE_LABELS
+from ..exceptions import InvalidArrayError, InvalidParameterError
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from ..model.camera import StereoCamera
+    from ..model.camera import PinholeCamera, StereoCamera
     from ..simulation.results import SimulationResult
 
 __all__ = [
@@ -61,6 +70,63 @@ RESULT_FIGURES = (
 )
 _TARGET = dict(ls="--", lw=1.0, color="k")
 _LIMIT = dict(ls="--", lw=1.0, color="C3")
+# Coordinate names per point, by features per point (3: stereo, Eq. (24); 2: monocular).
+_COORDINATES = {3: ("ul", "ur", "v"), 2: ("u", "v")}
+_NORMALIZED_COORDINATES = {3: ("xl", "xr", "y"), 2: ("x", "y")}
+
+
+@dataclass(frozen=True)
+class _ImageLayout:
+    """How a result's features read: n markers, ``per_point`` coordinates each, and their unit."""
+
+    n_points: int
+    per_point: int  # 3: [u_l, u_r, v] (stereo), 2: [u, v] (monocular)
+    normalized: bool  # unitless x = X/Z, y = Y/Z instead of metres on the sensor
+    camera: StereoCamera | PinholeCamera
+
+    @property
+    def scale(self) -> float:
+        """Factor from feature values to plotted values (metres -> mm, or 1)."""
+        return 1.0 if self.normalized else MM
+
+    @property
+    def unit(self) -> str:
+        """Unit of the plotted image coordinates."""
+        return "normalized" if self.normalized else "mm"
+
+    def names(self, i: int) -> tuple[str, ...]:
+        """Names of marker i's coordinates (0-based i), e.g. ("ul1", "ur1", "v1")."""
+        names = (_NORMALIZED_COORDINATES if self.normalized else _COORDINATES)[self.per_point]
+        return tuple(f"{c}{i + 1}" for c in names)
+
+
+def _layout(result: SimulationResult, camera: StereoCamera | PinholeCamera | None) -> _ImageLayout:
+    """The result's feature layout; ``camera`` default: the ZED 2 (stereo) or one of its lenses.
+
+    Raises:
+        InvalidArrayError: the features are not 2 or 3 coordinates per marker.
+        InvalidParameterError: ``camera`` gives another number of coordinates per marker.
+    """
+    from ..model.camera import PinholeCamera, StereoCamera
+
+    n_points, m = result.n_points, result.features.shape[1]
+    per_point = m // n_points if n_points else 0
+    if per_point not in _COORDINATES or per_point * n_points != m:
+        raise InvalidArrayError(
+            "features", f"{m} coordinates for {n_points} markers", "3 (stereo) or 2 (monocular) per marker"
+        )
+    if camera is None:
+        camera = StereoCamera.zed2() if per_point == 3 else PinholeCamera.zed2()
+    camera_per_point = 3 if isinstance(camera, StereoCamera) else 2
+    if camera_per_point != per_point:
+        raise InvalidParameterError(
+            "camera",
+            f"{type(camera).__name__} {camera.name!r}",
+            f"a {'StereoCamera' if per_point == 3 else 'PinholeCamera'}: the result has "
+            f"{per_point} coordinates per marker",
+        )
+    normalized = camera.unbounded_view and camera.focal_length == 1.0
+    return _ImageLayout(n_points, per_point, normalized, camera)
 
 
 def _figure(n_rows: int, n_cols: int, title: str, size: tuple[float, float], **kw: Any) -> tuple[Figure, Any]:
@@ -100,83 +166,115 @@ def plot_joint_angles(result: SimulationResult) -> Figure:
     return fig
 
 
-def plot_image_coordinates(result: SimulationResult) -> Figure:
-    """The nine stereo features [mm on the sensor] against time; targets dashed.
+def plot_image_coordinates(
+    result: SimulationResult, camera: StereoCamera | PinholeCamera | None = None
+) -> Figure:
+    """Every feature coordinate against time [mm on the sensor]; targets dashed.
 
-    Row i is marker i + 1, columns ``u_l, u_r, v`` (Eq. (24) order): panel k (row-major)
-    has ``ax.lines[0] = 1e3 * features[:, k]`` and ``ax.lines[1]`` the target.
+    Row i is marker i + 1, columns its coordinates: ``u_l, u_r, v`` for a stereo camera
+    (Eq. (24) order), ``u, v`` for a monocular one. Panel k (row-major) has
+    ``ax.lines[0] = 1e3 * features[:, k]`` and ``ax.lines[1]`` the target; a normalized
+    camera's coordinates are drawn unscaled.
+
+    Args:
+        result: The run.
+        camera: Says the layout and unit; default the paper's ZED 2 (stereo features) or
+            one of its lenses (monocular features).
     """
-    fig, axes = _figure(3, 3, _title(result, "image coordinates"), (11.0, 7.0), sharex=True)
+    layout = _layout(result, camera)
+    n, per = layout.n_points, layout.per_point
+    size = (3.7 * per, 1.8 * n + 1.6)  # 11 x 7 in for three stereo markers
+    fig, axes = _figure(n, per, _title(result, "image coordinates"), size, sharex=True)
+    labels = [name for i in range(n) for name in layout.names(i)]
     for k, ax in enumerate(axes.flat):
-        ax.plot(result.t, MM * result.features[:, k], lw=1.4, color=f"C{k // 3}")
-        ax.axhline(MM * result.feature_target[k], **_TARGET)
-        ax.set_ylabel(f"{FEATURE_LABELS[k]} [mm]")
+        ax.plot(result.t, layout.scale * result.features[:, k], lw=1.4, color=f"C{k // per}")
+        ax.axhline(layout.scale * result.feature_target[k], **_TARGET)
+        ax.set_ylabel(f"{labels[k]} [{layout.unit}]")
         ax.grid(alpha=0.3)
     for ax in axes[-1]:
         ax.set_xlabel("t [s]")
     return fig
 
 
-def plot_feature_error_norm(result: SimulationResult) -> Figure:
-    """Image error norm ``||e||`` [m] on a log scale, total and per marker.
+def plot_feature_error_norm(
+    result: SimulationResult, camera: StereoCamera | PinholeCamera | None = None
+) -> Figure:
+    """Image error norm ``||e||`` [m on the sensor] on a log scale, total and per marker.
 
-    ``ax.lines[0]`` is the norm over the nine coordinates, ``ax.lines[1:4]`` the norm of
-    each marker's three coordinates.
+    ``ax.lines[0]`` is the norm over all m coordinates, ``ax.lines[1 + i]`` the norm of
+    marker i + 1's coordinates (3 for a stereo camera, 2 for a monocular one), for
+    i < ``result.n_points``. A normalized camera's error is unitless.
+
+    Args:
+        result: The run.
+        camera: Says the layout and unit, as in :func:`plot_image_coordinates`.
     """
+    layout = _layout(result, camera)
+    per = layout.per_point
     fig, axes = _figure(1, 1, _title(result, "image error norm"), (8.0, 4.5))
     ax = axes[0, 0]
     e = result.feature_error
-    ax.plot(result.t, np.linalg.norm(e, axis=1), lw=1.8, color="k", label="||e|| (9 coordinates)")
-    for i in range(e.shape[1] // 3):
-        ax.plot(result.t, np.linalg.norm(e[:, 3 * i : 3 * i + 3], axis=1), lw=1.0, label=f"marker {i + 1}")
+    ax.plot(result.t, np.linalg.norm(e, axis=1), lw=1.8, color="k", label=f"||e|| ({e.shape[1]} coordinates)")
+    for i in range(layout.n_points):
+        norm = np.linalg.norm(e[:, per * i : per * i + per], axis=1)
+        ax.plot(result.t, norm, lw=1.0, label=f"marker {i + 1}")
     ax.set_yscale("log")
     ax.set_xlabel("t [s]")
-    ax.set_ylabel("||e|| [m on the sensor]")
+    ax.set_ylabel("||e|| [normalized]" if layout.normalized else "||e|| [m on the sensor]")
     ax.grid(alpha=0.3, which="both")
     ax.legend(loc="best", fontsize="small")
     return fig
 
 
-def plot_image_plane(result: SimulationResult, camera: StereoCamera | None = None) -> Figure:
+def plot_image_plane(result: SimulationResult, camera: StereoCamera | PinholeCamera | None = None) -> Figure:
     """Marker trajectories in the image of each lens (v down), with the sensor outline.
 
-    Left panel: ``(u_l, v)``, right panel: ``(u_r, v)``, in mm on the sensor. In each panel
-    ``ax.lines[i]`` (i = 0, 1, 2) is marker i + 1's trajectory, ``ax.lines[3 + i]`` its start
-    (circle) and ``ax.lines[6 + i]`` its target (cross); ``ax.patches[0]`` is the sensor
-    rectangle [-w/2, w/2] x [-h/2, h/2]. The paper's virtual markers (ERRATA 13) can lie
-    far outside it.
+    A stereo camera has two panels, left ``(u_l, v)`` and right ``(u_r, v)``; a monocular
+    one a single panel ``(u, v)``; in mm on the sensor. With n = ``result.n_points``, in
+    each panel ``ax.lines[i]`` (i < n) is marker i + 1's trajectory, ``ax.lines[n + i]`` its
+    start (circle) and ``ax.lines[2 n + i]`` its target (cross); ``ax.patches[0]`` is the
+    sensor rectangle [-w/2, w/2] x [-h/2, h/2]. The paper's virtual markers (ERRATA 13) can
+    lie far outside it. A camera without a field-of-view limit (``unbounded_view``) has no
+    sensor outline; a normalized one (``PinholeCamera.normalized()``) is drawn in unitless
+    x = X/Z, y = Y/Z.
 
     Args:
         result: The run.
-        camera: Gives the sensor extent; default the paper's ZED 2 (``StereoCamera.zed2()``).
+        camera: Gives the layout and the sensor extent; default the paper's ZED 2
+            (``StereoCamera.zed2()``) for stereo features, one of its lenses
+            (``PinholeCamera.zed2()``) for monocular ones.
+
+    Raises:
+        InvalidParameterError: ``camera`` is stereo and the features monocular, or the reverse.
     """
     from matplotlib.patches import Rectangle
 
-    if camera is None:
-        from ..model.camera import StereoCamera
-
-        camera = StereoCamera.zed2()
-    w, h = MM * camera.sensor_width, MM * camera.sensor_height
-    fig, axes = _figure(1, 2, _title(result, "image plane"), (11.0, 5.0))
-    p, target = MM * result.features, MM * result.feature_target
-    n_points = p.shape[1] // 3
-    for col, (ax, lens) in enumerate(zip(axes[0], ("left", "right"), strict=True)):
-        u = [3 * i + col for i in range(n_points)]  # u_l or u_r of each marker
-        v = [3 * i + 2 for i in range(n_points)]
-        for i in range(n_points):
+    layout = _layout(result, camera)
+    n, per, scale, unit = layout.n_points, layout.per_point, layout.scale, layout.unit
+    w, h = MM * layout.camera.sensor_width, MM * layout.camera.sensor_height
+    lenses = ("left", "right") if per == 3 else ("",)
+    size = (11.0, 5.0) if per == 3 else (6.5, 5.0)
+    fig, axes = _figure(1, len(lenses), _title(result, "image plane"), size)
+    p, target = scale * result.features, scale * result.feature_target
+    u_name, v_name = ("x", "y") if layout.normalized else ("u", "v")
+    for col, (ax, lens) in enumerate(zip(axes[0], lenses, strict=True)):
+        u = [per * i + col for i in range(n)]  # u_l, u_r or u of each marker
+        v = [per * i + per - 1 for i in range(n)]
+        for i in range(n):
             ax.plot(p[:, u[i]], p[:, v[i]], lw=1.4, color=f"C{i}", label=f"marker {i + 1}")
-        for i in range(n_points):
+        for i in range(n):
             ax.plot(p[0, u[i]], p[0, v[i]], "o", color=f"C{i}", ms=6, mfc="none")
-        for i in range(n_points):
+        for i in range(n):
             ax.plot(target[u[i]], target[v[i]], "x", color=f"C{i}", ms=9, mew=2)
-        ax.add_patch(
-            Rectangle((-w / 2, -h / 2), w, h, fill=False, ls="-", lw=1.2, color="0.3", label="sensor")
-        )
+        if not layout.camera.unbounded_view:  # its sensor extent is nominal
+            ax.add_patch(
+                Rectangle((-w / 2, -h / 2), w, h, fill=False, ls="-", lw=1.2, color="0.3", label="sensor")
+            )
         ax.set_aspect("equal", adjustable="datalim")
         ax.invert_yaxis()  # v (and y_C) point down
-        ax.set_title(f"{lens} lens (o start, x target)")
-        ax.set_xlabel(f"u_{lens[0]} [mm]")
-        ax.set_ylabel("v [mm]")
+        ax.set_title(f"{lens} lens (o start, x target)" if lens else "image (o start, x target)")
+        ax.set_xlabel(f"{u_name}_{lens[0]} [{unit}]" if lens else f"{u_name} [{unit}]")
+        ax.set_ylabel(f"{v_name} [{unit}]")
         ax.grid(alpha=0.3)
     axes[0, 0].legend(loc="best", fontsize="small")
     return fig
@@ -236,13 +334,18 @@ def plot_joint_speeds_torques(result: SimulationResult, arm: Any = None) -> Figu
 
 
 def plot_result(
-    result: SimulationResult, arm: Any = None, camera: StereoCamera | None = None
+    result: SimulationResult, arm: Any = None, camera: StereoCamera | PinholeCamera | None = None
 ) -> dict[str, Figure]:
-    """Every run figure, by name (:data:`RESULT_FIGURES` order); joint figures only for an arm plant."""
+    """Every run figure, by name (:data:`RESULT_FIGURES` order).
+
+    The joint figures need the arm plants' signals: a free-camera run (no ``q``, ``dq``)
+    has only the three image figures, a kinematic arm's (no ``tau``) no torque column.
+    ``arm`` and ``camera`` are passed on, as in the single figures.
+    """
     figures = {
         "joint_angles": plot_joint_angles(result) if "q" in result.signals else None,
-        "image_coordinates": plot_image_coordinates(result),
-        "feature_error_norm": plot_feature_error_norm(result),
+        "image_coordinates": plot_image_coordinates(result, camera),
+        "feature_error_norm": plot_feature_error_norm(result, camera),
         "image_plane": plot_image_plane(result, camera),
         "joint_speeds_torques": plot_joint_speeds_torques(result, arm) if "dq" in result.signals else None,
     }
@@ -253,7 +356,7 @@ def save_result_figures(
     result: SimulationResult,
     out_dir: str | Path,
     arm: Any = None,
-    camera: StereoCamera | None = None,
+    camera: StereoCamera | PinholeCamera | None = None,
     *,
     dpi: int = 110,
 ) -> dict[str, Path]:

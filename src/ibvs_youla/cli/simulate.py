@@ -110,7 +110,8 @@ def _summary(result: Any, arm: Any) -> tuple[str, dict[str, Any]]:
         + f" m; ||e|| changed {100 * outcome.error_change:+.2g} % over the last 20 % of the run",
         f"  final image error max |e| = {outcome.final_image_error_m:.3g} m on the sensor",
         f"  final pose error  {outcome.position_error_mm:.3g} mm, {outcome.rotation_error_deg:.3g} deg",
-        f"  2 % settling      {np.max(settle):.3g} s (slowest of 9 coordinates; inf = not settled)",
+        f"  2 % settling      {np.max(settle):.3g} s (slowest of {result.features.shape[1]} coordinates; "
+        "inf = not settled)",
         f"  overshoot         {np.nanmax(over) if np.any(np.isfinite(over)) else np.nan:.3g} % (largest)",
         f"  peak joint speed  {ratios} x limit (max {speed.max():.3g}x, joint {speed.argmax() + 1})",
         f"  peak torque       max {torque.max():.3g}x limit (joint {torque.argmax() + 1})"

@@ -91,7 +91,7 @@ class _Frame:
             q_target=sc.q_target,
         )
         s = settings.controller_settings()
-        self.controller = YoulaController(feedforward=True, adaptive=True, settings=s)
+        self.controller = YoulaController(with_feedforward=True, adaptive=True, settings=s)
         self.controller.reset(self.task)
         self.arm = arm
         # The update's parts, built as the controller builds its own, for the timed parts.

@@ -175,8 +175,16 @@ def test_load_config_rejects_invalid_toml_and_missing_files(tmp_path):
 
 
 def test_examples_exist_and_load():
-    assert [p.name for p in EXAMPLES] == ["custom_scenario.toml", "paper_scenario1.toml", "physical.toml"]
+    assert [p.name for p in EXAMPLES] == [
+        "custom_scenario.toml",
+        "kinematic_arm.toml",
+        "paper_scenario1.toml",
+        "physical.toml",
+    ]
     configs = {p.stem: load_config(p) for p in EXAMPLES}
+    kinematic = configs["kinematic_arm"]
+    assert kinematic.scenario == scenarios.paper(2) and kinematic.plant == "kinematic"
+    assert kinematic.controller == "ff+fb" and kinematic.settings == SimulationSettings.paper()
     assert configs["paper_scenario1"].scenario == scenarios.paper(1)
     assert configs["paper_scenario1"].settings == SimulationSettings.paper()  # spelled out
     assert configs["physical"].scenario == scenarios.physical(1)

@@ -2,9 +2,10 @@
 
 ``tests/regression/loop_reference.npz`` was written by ``tests/regression/make_reference.py`` from
 the monolithic loop that the role-based loop replaced (the commit is stored in the file). Each case
-re-runs through the public ``simulate`` and every recorded signal must match: the difference over
-the whole run is at most 1e-8 of the signal's largest magnitude (the paper's 1 ms feedforward
-drives torques to ~1e7 N m, so a per-sample relative test would be meaningless near zero crossings).
+re-runs through the public ``simulate`` and every recorded sample must match to 1e-8 of its own
+value, with a floor of 1e-11 of its column's largest magnitude where a value crosses zero (the
+paper's 1 ms feedforward drives torques to ~1e7 N m early on, so a floor relative to the whole
+signal would allow 1e-3 relative errors on the later ~100 N m torques).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from ibvs_youla.simulation.settings import SimulationSettings
 
 REFERENCE = Path(__file__).parent / "regression" / "loop_reference.npz"
 RTOL = 1e-8
+FLOOR = 1e-11
 
 
 def _cases():
@@ -64,7 +66,9 @@ def test_paper_controller_matches_the_pre_rebuild_loop(case, reference, arm):
         "camera_pose",
     ):
         expected = reference[f"{name}/{signal}"]
-        scale = max(np.abs(expected).max(), 1e-300)
-        np.testing.assert_allclose(
-            getattr(result, signal), expected, rtol=0, atol=RTOL * scale, err_msg=f"{name}: {signal}"
-        )
+        # per column (joint, feature, pose entry): within 1e-8 of each value, plus a floor of 1e-11
+        # of the column's largest magnitude for values near a zero crossing
+        actual = getattr(result, signal)
+        floor = FLOOR * np.abs(expected).max(axis=0)
+        bad = np.abs(actual - expected) > RTOL * np.abs(expected) + floor
+        assert not bad.any(), f"{name}: {signal} differs at {np.argwhere(bad)[:5].tolist()}"

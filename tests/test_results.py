@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from ibvs_youla.exceptions import InvalidArrayError, InvalidParameterError
-from ibvs_youla.simulation.results import ResultRecorder, SimulationResult
+from ibvs_youla.simulation.recorder import ResultRecorder
+from ibvs_youla.simulation.results import SimulationResult
 
 SIGNALS = ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau")
 
@@ -38,7 +39,7 @@ def _recorder(capacity=4, metadata=None):
         target_pose,
         capacity,
         n_points=3,
-        signal_names=SIGNALS,
+        signals=dict.fromkeys(SIGNALS, (6,)),
         metadata=metadata,
     )
 
@@ -162,14 +163,19 @@ def test_bad_input_raises():
         )
     with pytest.raises(InvalidParameterError, match="status"):
         _recorder().result(status="finished")
-    rec = ResultRecorder(np.zeros(9), np.eye(4), 2, signal_names=("q",))
+    rec = ResultRecorder(np.zeros(9), np.eye(4), 2, signals={"q": (6,)})
+    assert rec.result().q.shape == (0, 6)  # a run stopped before its first sample still has its signals
     rec.record(0.0, np.eye(4), np.zeros(9), np.ones(3, bool), [np.zeros(6)])
     with pytest.raises(InvalidParameterError, match="one per name of \\('q',\\)"):
         rec.record(1e-3, np.eye(4), np.zeros(9), np.ones(3, bool), [np.zeros(6), np.zeros(6)])
+    with pytest.raises(InvalidArrayError, match="signal 'q': received a value of shape \\(\\)"):
+        rec.record(1e-3, np.eye(4), np.zeros(9), np.ones(3, bool), [0.0])  # would broadcast silently
+    with pytest.raises(InvalidArrayError, match="shape \\(5,\\)"):
+        rec.record(1e-3, np.eye(4), np.zeros(9), np.ones(3, bool), [np.zeros(5)])
     with pytest.raises(AttributeError, match="no attribute or signal 'q_ff'; signals: q"):
         rec.result().q_ff  # noqa: B018
-    with pytest.raises(InvalidParameterError, match="signal_names"):
-        ResultRecorder(np.zeros(9), np.eye(4), 2, signal_names=("q", "q"))
+    with pytest.raises(InvalidParameterError, match="signals"):
+        ResultRecorder(np.zeros(9), np.eye(4), 2, signals={"q": 6})
 
 
 def test_a_file_saved_in_format_1_loads_with_every_signal():

@@ -115,7 +115,9 @@ def test_an_image_based_controller_written_by_a_user_converges_on_the_free_camer
     )
     e0, e1 = (np.linalg.norm(result.feature_error[i]) for i in (0, -1))
     mm, deg = result.final_pose_error()
-    assert e1 < 1e-4 * e0 and mm < 1e-2 and deg < 1e-3  # lambda = 2 1/s over 5 s: e^-10 ~ 4.5e-5
+    # lambda = 2 1/s over 5 s at 100 Hz: e^-10 = 4.5e-5 of the start, to first order; measured values
+    assert e1 / e0 == pytest.approx(4.4588e-5, rel=1e-3)
+    assert mm == pytest.approx(4.1612e-3, rel=1e-3) and deg == pytest.approx(3.6922e-4, rel=1e-3)
 
 
 # --------------------------------------------------------------------------- every controller on every plant
@@ -123,13 +125,27 @@ def test_an_image_based_controller_written_by_a_user_converges_on_the_free_camer
 @pytest.mark.parametrize("name", controllers.names())
 def test_every_registered_controller_runs_on_every_plant_or_says_why_not(name, plant, arm):
     ctrl = controllers.make(name)
+    # the chain only goes twist -> joint velocity -> joint position -> torque, and a bare camera
+    # takes twists only: which pairs cannot run follows from the command type alone
+    order = [
+        CommandType.CAMERA_TWIST,
+        CommandType.JOINT_VELOCITY,
+        CommandType.JOINT_POSITION,
+        CommandType.JOINT_TORQUE,
+    ]
+    runs = {
+        "free-camera": ctrl.command_type is CommandType.CAMERA_TWIST,
+        "kinematic": order.index(ctrl.command_type) <= order.index(CommandType.JOINT_POSITION),
+        "dynamic": True,
+    }[plant]
     try:
         result = iy.simulate(scenarios.physical(2), ctrl, duration=0.05, plant=plant, arm=arm)
     except IncompatibleCommandError as err:
+        assert not runs
         assert err.command_type == ctrl.command_type.value and err.plant == plant
         assert ctrl.command_type.value in str(err) and repr(plant) in str(err)
-        assert plant == "free-camera" and ctrl.command_type is CommandType.JOINT_POSITION
         return
+    assert runs
     assert result.status == "complete" and result.metadata["plant"] == plant
     assert result.metadata["controller"] == name and result.metadata["spec"]["controller"]["name"] == name
     assert np.all(np.isfinite(result.features))
@@ -167,7 +183,7 @@ def test_controller_name_and_object_errors():
     sc = scenarios.physical(1)
     with pytest.raises(InvalidParameterError, match="'fb', 'ff\\+fb'"):
         iy.simulate(sc, "pid", duration=0.01)
-    with pytest.raises(InvalidParameterError, match="missing"):
+    with pytest.raises(InvalidParameterError, match=r"or an iy\.controllers\.Controller"):
         iy.simulate(sc, object(), duration=0.01)
     with pytest.raises(InvalidParameterError, match="plant"):
         iy.simulate(sc, duration=0.01, plant="flying")
@@ -275,3 +291,218 @@ def test_cli_runs_the_paper_controller_on_the_kinematic_arm(capsys, tmp_path):
         == 1
     )  # joint commands cannot drive a bare camera
     assert "'free-camera' plant accepts camera_twist" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- review: beliefs, objects, checks
+def test_the_controller_believes_its_start_pose_from_the_encoders(arm):
+    """paper-2's 1 deg offset is unseen: the task's start pose is the model arm at the encoders."""
+    ctrl = ConstantTwist()
+    sc = scenarios.paper(2)
+    iy.simulate(sc, ctrl, duration=0.01, arm=arm)
+    np.testing.assert_array_equal(ctrl.task.T_O_C_start, arm.camera_pose(sc.q_start))
+    assert np.abs(ctrl.task.T_O_C_start - arm.camera_pose(sc.q_true_start)).max() > 1e-3
+    free = ConstantTwist()
+    iy.simulate(sc, free, duration=0.01, plant="free-camera", arm=arm)
+    assert free.task.arm is None and free.task.q_start is None and free.task.q_target is None
+    np.testing.assert_array_equal(free.task.T_O_C_start, arm.camera_pose(sc.q_true_start))
+
+
+def test_a_belief_arm_drives_the_actuation_while_the_plant_keeps_the_truth(arm):
+    sc = scenarios.physical(2)
+    heavy = arm.with_inertia_scale(1.5)
+    by_belief = iy.simulate(sc, "ff+fb", duration=0.05, arm=arm, beliefs=iy.Beliefs(arm=heavy))
+    by_setting = iy.simulate(
+        sc, "ff+fb", duration=0.05, arm=arm, settings=iy.SimulationSettings(model_inertia_scale=1.5)
+    )
+    exact = iy.simulate(sc, "ff+fb", duration=0.05, arm=arm)
+    for name in ("q", "tau", "q_fb"):
+        np.testing.assert_array_equal(getattr(by_belief, name), getattr(by_setting, name))
+    assert np.abs(by_belief.tau - exact.tau).max() > 1.0  # [N m]: feedback linearization with the wrong model
+    spec = by_belief.metadata["spec"]["beliefs"]["arm"]
+    assert spec["name"] == heavy.name and np.array_equal(spec["T_E_C"], heavy.T_E_C)
+
+
+def test_beliefs_must_describe_the_same_world():
+    sc = scenarios.physical(1)
+    with pytest.raises(InvalidParameterError, match="the scenario's 3"):
+        iy.simulate(sc, ConstantTwist(), duration=0.01, beliefs=iy.Beliefs(markers_O=MARKERS_4))
+    with pytest.raises(iy.exceptions.DegenerateMarkersError, match="collinear"):
+        iy.Beliefs(markers_O=[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [2.0, 0.0, 1.0]])
+    with pytest.raises(InvalidParameterError, match="feature layout"):
+        iy.simulate(sc, ConstantTwist(), duration=0.01, beliefs=iy.Beliefs(camera=PinholeCamera.zed2()))
+    with pytest.raises(InvalidParameterError, match="free-flying camera"):
+        iy.simulate(
+            sc, ConstantTwist(), duration=0.01, plant="free-camera", beliefs=iy.Beliefs(arm=iy.Arm.irb4600())
+        )
+    with pytest.raises(InvalidParameterError, match=r"beliefs\.arm"):
+        iy.Beliefs(arm="irb4600")
+
+
+def test_controller_objects_carry_their_own_options():
+    sc = scenarios.physical(1)
+    with pytest.raises(InvalidParameterError, match=r"omega_n=5\.0"):
+        iy.simulate(sc, ConstantTwist(), duration=0.01, settings=iy.SimulationSettings(omega_n=5.0))
+    with pytest.raises(InvalidParameterError, match="adaptive"):
+        iy.simulate(sc, ConstantTwist(), adaptive=False, duration=0.01)
+    with pytest.raises(InvalidParameterError, match="an instance"):
+        iy.simulate(sc, ConstantTwist, duration=0.01)
+
+    class NoType(Controller):
+        def command(self, reading):
+            return np.zeros(6)
+
+    with pytest.raises(InvalidParameterError, match=r"NoType\.command_type"):
+        iy.simulate(sc, NoType(), duration=0.01)
+    # the paper's gains go to make(); every YoulaSettings field is accepted there
+    smooth = controllers.make("ff+fb", feedforward="smooth", smooth_speed_fraction=0.3, omega_n=5.0)
+    assert smooth.settings.feedforward == "smooth" and smooth.with_feedforward
+    result = iy.simulate(sc, smooth, duration=0.01)
+    assert result.metadata["spec"]["controller"]["settings"]["feedforward"] == "smooth"
+    for field in controllers.YoulaSettings.field_names():
+        value = getattr(controllers.YoulaSettings(), field)
+        assert getattr(controllers.make("fb", **{field: value}).settings, field) == value
+    with pytest.raises(InvalidParameterError, match="factory"):
+        controllers.register("new-name", "not callable", "x")
+
+
+class Scripted(Controller):
+    """Commands what it is given at tick ``bad_at`` (zeros before), declares what it is given."""
+
+    command_type = CommandType.CAMERA_TWIST
+    name = "scripted"
+
+    def __init__(self, bad=Ellipsis, bad_at=0, declared=None, raise_in_update=None):
+        self.bad, self.bad_at, self.declared, self.raise_in_update = bad, bad_at, declared, raise_in_update
+
+    def reset(self, task):
+        super().reset(task)
+        self.k = 0
+
+    def update(self, frame, reading):
+        if self.raise_in_update is not None and self.k >= 3:
+            raise self.raise_in_update
+
+    def command(self, reading):
+        self.k += 1
+        return self.bad if self.k - 1 == self.bad_at and self.bad is not Ellipsis else np.zeros(6)
+
+    def signals(self):
+        return self.declared(self.k) if self.declared else {}
+
+
+@pytest.mark.parametrize("bad", [np.zeros(5), None, 0.0, [np.nan] * 6])
+def test_a_malformed_first_command_names_the_controller(bad):
+    free = iy.Scenario.free_camera(np.eye(4), np.eye(4), MARKERS_4)
+    with pytest.raises(
+        InvalidParameterError, match=r"Scripted.command\(\).*finite \(6,\) array: a camera_twist"
+    ):
+        iy.simulate(
+            free, Scripted(bad=bad), duration=0.05, plant="free-camera", camera=PinholeCamera.normalized()
+        )
+
+
+def test_declared_signals_keep_their_names_and_shapes():
+    free = iy.Scenario.free_camera(np.eye(4), np.eye(4), MARKERS_4)
+    run = dict(duration=0.05, plant="free-camera", camera=PinholeCamera.normalized())
+    ok = iy.simulate(free, Scripted(declared=lambda k: {"k": np.array([float(k)])}), **run)
+    np.testing.assert_array_equal(ok.k[:, 0], np.arange(1.0, 7.0))  # recorded after each tick's command
+    with pytest.raises(InvalidParameterError, match="the names it declared first"):
+        iy.simulate(
+            free, Scripted(declared=lambda k: {"a": np.zeros(1)} if k == 0 else {"b": np.zeros(1)}), **run
+        )
+    with pytest.raises(iy.exceptions.InvalidArrayError, match="signal 'a'"):
+        iy.simulate(free, Scripted(declared=lambda k: {"a": np.zeros(1 if k == 0 else 2)}), **run)
+    with pytest.raises(InvalidParameterError, match="names other than"):
+        iy.simulate(free, Scripted(declared=lambda k: {"camera_twist": np.zeros(6)}), **run)
+
+
+def test_a_failing_controller_estimate_is_not_a_lost_marker():
+    free = iy.Scenario.free_camera(np.eye(4), np.eye(4), MARKERS_4)
+    err = iy.exceptions.UnreachablePoseError(np.eye(4), "no IK branch within the joint limits")
+    result = iy.simulate(
+        free,
+        Scripted(raise_in_update=err),
+        duration=0.1,
+        plant="free-camera",
+        camera=PinholeCamera.normalized(),
+    )
+    assert result.status == "estimate_failed" and "Scripted's estimate failed" in result.metadata["error"]
+    assert len(result) == 3 and len(result.frame_t) == 3  # frames 0, 1, 2 recorded; the 4th failed
+
+
+def test_a_run_lost_at_the_start_still_has_its_signals(arm):
+    sc = scenarios.physical(1)
+    turned = sc.q_target - np.radians([170.0, 0, 0, 0, 0, 0])  # joint 1 turned away: markers behind
+    behind = iy.Scenario(turned, sc.q_target, sc.markers_O)
+    result = iy.simulate(behind, "ff+fb", duration=0.05, arm=arm)
+    assert result.status == "markers_lost" and "the true camera lost a marker" in result.metadata["error"]
+    assert len(result) == 0 and result.q.shape == (0, 6) and result.q_ff.shape == (0, 6)
+
+
+def test_ctrl_c_keeps_the_recorded_samples():
+    class Interrupt(Scripted):
+        def command(self, reading):
+            if self.k == 4:
+                raise KeyboardInterrupt
+            return super().command(reading)
+
+    free = iy.Scenario.free_camera(np.eye(4), np.eye(4), MARKERS_4)
+    with pytest.raises(KeyboardInterrupt) as info:
+        iy.simulate(free, Interrupt(), duration=0.1, plant="free-camera", camera=PinholeCamera.normalized())
+    partial = info.value.partial
+    assert partial.status == "interrupted" and len(partial) == 4 and len(partial.frame_t) == 5
+
+
+def test_durations_and_flags_are_checked():
+    sc = scenarios.physical(1)
+    with pytest.raises(InvalidParameterError, match="at least one tick"):
+        iy.simulate(sc, ConstantTwist(), duration=1e-5)
+    with pytest.raises(InvalidParameterError, match="progress"):
+        iy.simulate(sc, ConstantTwist(), duration=0.01, progress="yes")
+
+
+def test_real_results_round_trip_through_save_and_load(tmp_path, arm):
+    dynamic = iy.simulate(scenarios.physical(2), "ff+fb", duration=0.03, arm=arm)
+    free = iy.simulate(
+        iy.Scenario.free_camera(np.eye(4), np.eye(4), MARKERS_4),
+        ConstantTwist([0.1, 0, 0, 0, 0, 0]),
+        duration=0.05,
+        plant="free-camera",
+        camera=PinholeCamera.normalized(),
+    )
+    for i, result in enumerate((dynamic, free)):
+        back = iy.SimulationResult.load(result.save(tmp_path / f"run{i}"))
+        assert back.signals.keys() == result.signals.keys() and back.metadata == result.metadata
+        for name in (
+            "t",
+            "camera_pose",
+            "features",
+            "visible",
+            "frame_t",
+            "frame_features",
+            "frame_visible",
+            "update_time",
+            *result.signals,
+        ):
+            np.testing.assert_array_equal(getattr(back, name), getattr(result, name), err_msg=name)
+    assert set(dynamic.signals) == {"q", "q_true", "dq", "q_ref", "tau", "q_ff", "q_fb"}
+    assert len(dynamic.frame_t) == 4 and set(free.signals) == {"camera_twist"}
+
+
+def test_two_runs_on_one_arm_in_two_threads_equal_the_runs_alone(arm):
+    from concurrent.futures import ThreadPoolExecutor
+
+    cases = [(scenarios.physical(1), "ff+fb"), (scenarios.paper(2), "fb")]
+    alone = [iy.simulate(sc, name, duration=0.1, arm=arm) for sc, name in cases]
+    with ThreadPoolExecutor(2) as pool:
+        threaded = list(pool.map(lambda c: iy.simulate(c[0], c[1], duration=0.1, arm=arm), cases))
+    for a, b in zip(alone, threaded, strict=True):
+        for name in ("q", "tau", "features", "camera_pose"):
+            np.testing.assert_array_equal(a.signals.get(name, getattr(a, name)), getattr(b, name))
+
+
+def test_the_registry_doctest_runs():
+    import doctest
+
+    failures, tried = doctest.testmod(controllers, verbose=False)
+    assert tried >= 2 and failures == 0

@@ -169,3 +169,34 @@ def test_kinematic_arm_takes_joint_commands_only(arm):
         plant.use_input(CommandType.JOINT_TORQUE)
     with pytest.raises(SimulationDivergedError, match="non-finite"):
         plant.apply(np.full(6, np.inf), 1e-3)
+
+
+def test_plants_take_their_input_by_name_too(arm):
+    plant = KinematicArmPlant(arm, q_encoder=np.zeros(6), dt=1e-3)
+    plant.use_input("joint_velocity")  # a string is parsed, not compared by identity
+    plant.apply(np.ones(6), 1e-3)
+    np.testing.assert_allclose(plant.reading().q, np.full(6, 1e-3), rtol=0, atol=1e-15)
+    with pytest.raises(InvalidParameterError, match="command_type"):
+        plant.use_input("joint_speed")
+    with pytest.raises(InvalidParameterError, match="an Arm"):
+        KinematicArmPlant(None, q_encoder=np.zeros(6))
+    camera = FreeCameraPlant(np.eye(4))
+    camera.use_input("camera_twist")
+    with pytest.raises(InvalidParameterError, match="dt"):
+        camera.apply(np.zeros(6), 0.0)
+    with pytest.raises(InvalidParameterError, match="a \\(6,\\) twist"):
+        camera.apply(np.zeros(5), 0.01)
+
+
+def test_a_torque_command_cannot_drive_the_kinematic_arm(arm):
+    class Torque(Controller):
+        command_type = CommandType.JOINT_TORQUE
+        name = "torque"
+
+        def command(self, reading):
+            return np.zeros(6)
+
+    with pytest.raises(iy.exceptions.IncompatibleCommandError, match="no adapter converts it"):
+        iy.simulate(scenarios.physical(1), Torque(), duration=0.01, plant="kinematic", arm=arm)
+    result = iy.simulate(scenarios.physical(1), Torque(), duration=0.01, plant="dynamic", arm=arm)
+    assert result.status == "complete" and set(result.signals) == {"q", "q_true", "dq", "tau"}

@@ -62,6 +62,8 @@ def register(
     """
     if not isinstance(name, str) or not name or name in _REGISTRY:
         raise InvalidParameterError("name", name, f"a new non-empty name (taken: {', '.join(_REGISTRY)})")
+    if not callable(factory):
+        raise InvalidParameterError("factory", type(factory).__name__, "a callable returning a Controller")
     _REGISTRY[name] = _Entry(factory, summary, youla_settings)
 
 
@@ -106,9 +108,9 @@ def make(name: str, **params: Any) -> Controller:
     return entry.factory(**params)
 
 
-def _youla(feedforward: bool) -> Callable[..., Controller]:
+def _youla(with_feedforward: bool) -> Callable[..., Controller]:
     def factory(adaptive: bool = True, settings: YoulaSettings | None = None, **gains: Any) -> Controller:
-        return YoulaController(feedforward, adaptive, settings, **gains)
+        return YoulaController(with_feedforward, adaptive, settings, **gains)
 
     return factory
 

@@ -155,7 +155,8 @@ class Controller:
     """Base class of servo controllers; subclass it and override what you need.
 
     Class attributes:
-        command_type: What :meth:`command` returns (a :class:`CommandType`).
+        command_type: What :meth:`command` returns (a :class:`CommandType`); every controller
+            must set it (the loop builds the actuation chain from it).
         name: Short identifier stored in the result's metadata.
 
     A subclass usually overrides :meth:`reset` (build what depends on the task),
@@ -164,7 +165,7 @@ class Controller:
     parameters stored with the result.
     """
 
-    command_type: ClassVar[CommandType] = CommandType.CAMERA_TWIST
+    command_type: ClassVar[CommandType]  # no default: a joint command must never be taken for a twist
     name: ClassVar[str] = "controller"
 
     def reset(self, task: ServoTask) -> None:

@@ -142,8 +142,9 @@ class YoulaController(Controller):
     """Li & Assadian's controller: q_ref = q_ff + q_fb (Figures 7-12); see the module docstring.
 
     Args:
-        feedforward: Add the feedforward path (the paper's proposal, ``"ff+fb"``); False is
-            feedback only (``"fb"``).
+        with_feedforward: Add the feedforward path (the paper's proposal, ``"ff+fb"``); False
+            is feedback only (``"fb"``). (Which feedforward, the paper's step or the smooth
+            one, is the ``feedforward`` setting.)
         adaptive: Re-linearize the outer loop at every frame (Eq. (62), Figure 12).
         settings: Gains and options; default :class:`YoulaSettings` (the paper's).
         **gains: Individual :class:`YoulaSettings` fields overriding ``settings``.
@@ -158,12 +159,12 @@ class YoulaController(Controller):
 
     def __init__(
         self,
-        feedforward: bool = True,
+        with_feedforward: bool = True,
         adaptive: bool = True,
         settings: YoulaSettings | None = None,
         **gains: Any,
     ) -> None:
-        self.feedforward = _flag(feedforward, "feedforward")
+        self.with_feedforward = _flag(with_feedforward, "with_feedforward")
         self.adaptive = _flag(adaptive, "adaptive")
         if settings is not None and not isinstance(settings, YoulaSettings):
             raise InvalidParameterError("settings", type(settings).__name__, "a YoulaSettings or None")
@@ -180,7 +181,7 @@ class YoulaController(Controller):
     @property
     def name(self) -> str:  # type: ignore[override]
         """``"ff+fb"`` or ``"fb"``: the registry name of this variant."""
-        return "ff+fb" if self.feedforward else "fb"
+        return "ff+fb" if self.with_feedforward else "fb"
 
     def spec(self) -> dict[str, Any]:
         """Variant, adaptive flag and every gain."""
@@ -210,7 +211,7 @@ class YoulaController(Controller):
         outer_design = OuterLoopDesign(s.omega_n, s.zeta, s.tau_in, s.sv_policy)
         self._outer = outer_design.runtime(task.frame_period, n)
         dt = task.tick_period
-        if self.feedforward:
+        if self.with_feedforward:
             ff = FeedforwardDesign(s.tau_in, s.tau_ff)
             if s.feedforward == "paper":
                 self._ff = ff.step_runtime(task.q_start, task.q_target, dt)

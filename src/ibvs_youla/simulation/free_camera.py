@@ -10,6 +10,13 @@ exact for a constant body twist (Pinocchio's ``exp6``, through ``_geometry.exp_t
 This is the plant of the classical IBVS studies (local minima, camera retreat), where no
 joint limits or dynamics interfere.
 It has no joints: the controller's :class:`~ibvs_youla.controllers.JointReading` is None.
+
+Two differences from ViSP's simulator, to know when comparing with its tutorials: ViSP
+scales a commanded twist down to at most 1 m/s and 90 deg/s (``saturateVelocities``),
+which this plant does not, and ViSP's default period is 40 ms, while here the control
+period is ``1 / SimulationSettings.camera_rate_hz`` (e.g. ``SimulationSettings(
+joint_rate_hz=25.0, camera_rate_hz=25.0)`` for 40 ms; on the free camera the joint rate only
+has to be a multiple of the camera rate).
 """
 
 from __future__ import annotations
@@ -41,9 +48,9 @@ class FreeCameraPlant:
         self._T = as_pose(T_O_C, "T_O_C").copy()
         self.t = 0.0
 
-    def use_input(self, command_type: CommandType) -> None:
+    def use_input(self, command_type: CommandType | str) -> None:
         """The free camera takes a camera twist only; anything else raises InvalidParameterError."""
-        if command_type is not CommandType.CAMERA_TWIST:
+        if CommandType.parse(command_type) is not CommandType.CAMERA_TWIST:
             raise InvalidParameterError(
                 "command_type", command_type, "camera_twist (the free camera's input)"
             )
@@ -64,8 +71,12 @@ class FreeCameraPlant:
 
     def apply(self, command: np.ndarray, dt: float) -> None:
         """T_O_C <- T_O_C exp(dt [xi]^) for the body twist ``command`` = [v; w] (6,) held over dt."""
+        if not dt > 0.0:
+            raise InvalidParameterError("dt", dt, "a control period > 0 s")
         xi = np.asarray(command, dtype=float)
-        if xi.shape != (6,) or not np.all(np.isfinite(xi)):
+        if xi.shape != (6,):
+            raise InvalidParameterError("command", f"an array of shape {xi.shape}", "a (6,) twist [v; w]")
+        if not np.all(np.isfinite(xi)):
             raise SimulationDivergedError(
                 self.t,
                 "camera_twist",

@@ -11,15 +11,20 @@ controller updates on it. Then, every tick, in this order:
 3. the sample is recorded (every ``record_every``-th tick and the last);
 4. the plant integrates over dt with the command held.
 
-A run ends early, with a status in the result rather than an exception, when a marker
-goes behind the camera or its disparity vanishes (``"markers_lost"``) or the controller's
-estimate fails (``"estimate_failed"``, e.g. no IK branch within the joint limits reaches
-the pose seen, Eq. (62)). The loop times its phases (wall clock, summed over the run) and stores them in
-``metadata["phase_seconds"]``: ``frame`` (the true camera pose, the sensor and the
-controller's image update), ``control`` (the command at tick rate, the actuation chain,
-recording) and ``plant`` (integration). A diverging plant raises
-:class:`~ibvs_youla.exceptions.SimulationDivergedError` with the samples recorded so far in
-``error.partial``.
+A run ends early, with a status in the result rather than an exception, when the true
+camera loses a marker (``"markers_lost"``: behind the camera, seen by the sensor) or the
+controller's own models fail on a valid image (``"estimate_failed"``: e.g. no IK branch
+within the joint limits reaches the pose seen, Eq. (62), or a believed marker lies behind
+the camera). A diverging plant raises :class:`~ibvs_youla.exceptions.SimulationDivergedError`,
+and Ctrl-C a ``KeyboardInterrupt``, each with the samples recorded so far in
+``error.partial`` (status ``"diverged"``, ``"interrupted"``). The first command is checked
+(a finite array of the command type's shape); later ones are left to the plant's
+divergence test.
+
+The loop times its phases (wall clock, summed over the run) and stores them in
+``metadata["phase_seconds"]``: ``frame`` (the encoder reading, the true camera pose, the
+sensor and the controller's image update), ``control`` (the command at tick rate, the
+actuation chain, recording) and ``plant`` (integration).
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from ..controllers.base import Controller
+from ..controllers.base import CommandType, Controller
 from ..exceptions import (
     InvalidDisparityError,
     InvalidParameterError,
@@ -38,7 +43,8 @@ from ..exceptions import (
     SimulationDivergedError,
     UnreachablePoseError,
 )
-from .results import ResultRecorder, SimulationResult
+from .recorder import ResultRecorder
+from .results import SimulationResult
 
 __all__ = ["ServoLoop"]
 
@@ -91,6 +97,12 @@ class ServoLoop:
                 status="diverged", extra_metadata={"error": str(err), "phase_seconds": self.phase_seconds}
             )
             raise
+        except KeyboardInterrupt as err:  # Ctrl-C: keep what was recorded, then stop as asked
+            err.partial = self.recorder.result(  # type: ignore[attr-defined]
+                status="interrupted",
+                extra_metadata={"error": "interrupted", "phase_seconds": self.phase_seconds},
+            )
+            raise
         finally:
             if bar is not None:
                 bar.close()
@@ -98,6 +110,19 @@ class ServoLoop:
         if status != "complete":
             extra["error"] = self._reason
         return self.recorder.result(status=status, extra_metadata=extra)
+
+    def _checked_command(self, command: Any) -> np.ndarray:
+        """The first command, checked once: a finite float array of the command type's shape."""
+        command_type = self.controller.command_type
+        n = 6 if command_type is CommandType.CAMERA_TWIST else getattr(self.plant, "n_joints", 6)
+        arr = np.asarray(command, dtype=float) if isinstance(command, (np.ndarray, list, tuple)) else None
+        if arr is None or arr.shape != (n,) or not np.all(np.isfinite(arr)):
+            raise InvalidParameterError(
+                f"{type(self.controller).__name__}.command()",
+                repr(command) if arr is None else f"an array of shape {arr.shape} {arr.tolist()}",
+                f"a finite ({n},) array: a {command_type.value} [{command_type.unit}]",
+            )
+        return arr
 
     def _ticks(self, bar: Any) -> str:
         controller, sensor, plant, chain, dt = self.controller, self.sensor, self.plant, self.chain, self.dt
@@ -118,18 +143,23 @@ class ServoLoop:
                     T_O_C = plant.camera_pose()
                     try:
                         frame = sensor.measure(T_O_C, t)
-                        tic = clock()
-                        controller.update(frame, reading)
-                        elapsed = clock() - tic
                     except (PointBehindCameraError, InvalidDisparityError) as err:
-                        self._reason = f"t = {t:.6g} s: {err}"
+                        self._reason = f"t = {t:.6g} s: the true camera lost a marker: {err}"
                         return "markers_lost"
-                    except UnreachablePoseError as err:
-                        self._reason = f"t = {t:.6g} s: Eq. (62) failed: {err}"
+                    tic = clock()
+                    try:
+                        controller.update(frame, reading)
+                    except (PointBehindCameraError, InvalidDisparityError, UnreachablePoseError) as err:
+                        # the controller's own models failed on a valid image (e.g. Eq. (62) has no
+                        # IK branch within the joint limits, or a belief puts a marker behind the camera)
+                        self._reason = f"t = {t:.6g} s: {type(controller).__name__}'s estimate failed: {err}"
                         return "estimate_failed"
+                    elapsed = clock() - tic
                     record_frame(t, frame.features, frame.visible, elapsed)
                 t_frame = clock()
                 command = controller.command(reading)
+                if k == 0:
+                    command = self._checked_command(command)
                 commands = [command]
                 for adapter in chain:
                     command = adapter(command, reading)

@@ -169,9 +169,9 @@ class ArmPlant:
         """Number of joints n."""
         return self._n
 
-    def use_input(self, command_type: CommandType) -> None:
+    def use_input(self, command_type: CommandType | str) -> None:
         """The dynamic arm takes joint torques only; anything else raises InvalidParameterError."""
-        if command_type is not CommandType.JOINT_TORQUE:
+        if CommandType.parse(command_type) is not CommandType.JOINT_TORQUE:
             raise InvalidParameterError(
                 "command_type", command_type, "joint_torque (the dynamic arm's input)"
             )

@@ -1,17 +1,16 @@
 """Simulation results as data: arrays over time plus JSON metadata, saved as one ``.npz``.
 
-:class:`SimulationResult` holds every recorded signal of a run (N samples) and the
-compute time of each control update (M updates). :class:`ResultRecorder` fills
-preallocated arrays sample by sample (amortised O(1) per sample, growing by doubling
-if the run is longer than announced) and can return the finished part of a run that
-stopped early, so a diverged or interrupted long job loses no recorded work.
+:class:`SimulationResult` holds every recorded signal of a run (N tick samples) and its
+frame log (M camera frames, with the compute time of each control update). The servo loop
+fills it through :class:`~.recorder.ResultRecorder`, which can return the finished part of
+a run that stopped early, so a diverged or interrupted long job loses no recorded work.
 """
 
 from __future__ import annotations
 
 import json
 import os
-from collections.abc import Sequence
+import zipfile
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -22,7 +21,7 @@ from .._geometry import pose_error_mm_deg
 from .._validation import as_array, as_pose
 from ..exceptions import InvalidArrayError, InvalidParameterError
 
-__all__ = ["STATUSES", "ResultRecorder", "SimulationResult", "software_versions"]
+__all__ = ["STATUSES", "SimulationResult", "normalise_metadata", "software_versions"]
 
 FORMAT_VERSION = 2  # 1: fixed three-marker stereo schema with q_ff/q_fb fields (still loads)
 STATUSES = ("complete", "markers_lost", "estimate_failed", "diverged", "interrupted")
@@ -54,7 +53,12 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
 
 
-def _normalise_metadata(metadata: Any) -> dict[str, Any]:
+def normalise_metadata(metadata: Any) -> dict[str, Any]:
+    """``metadata`` as plain JSON data (tuples become lists, numpy scalars floats), or an error.
+
+    Raises:
+        InvalidParameterError: not a dict, or not JSON-serialisable.
+    """
     if metadata is None:
         return {}
     if not isinstance(metadata, dict):
@@ -155,7 +159,7 @@ class SimulationResult:
         if k and update_time.shape != (k,):
             raise InvalidArrayError("update_time", f"an array of shape {update_time.shape}", f"shape ({k},)")
         set_(self, "update_time", update_time)
-        set_(self, "metadata", _normalise_metadata(self.metadata))
+        set_(self, "metadata", normalise_metadata(self.metadata))
 
     def __getattr__(self, name: str) -> np.ndarray:
         """A recorded signal by name, e.g. ``result.q`` or ``result.q_ff``."""
@@ -247,9 +251,15 @@ class SimulationResult:
             raise InvalidParameterError(
                 "path", str(path), "an existing file written by SimulationResult.save"
             )
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {name: data[name] for name in data.files}
-        header = json.loads(str(arrays.pop("__metadata__", "{}")))
+        valid = "a file written by SimulationResult.save (an .npz archive with a JSON header)"
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {name: data[name] for name in data.files}
+            header = json.loads(str(arrays.pop("__metadata__")))
+            if not isinstance(header, dict) or not isinstance(header.get("metadata"), dict):
+                raise ValueError("the JSON header has no 'metadata' object")
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+            raise InvalidParameterError("path", str(path), f"{valid}; reading it failed: {exc}") from None
         version = header.get("format_version")
         if version == 1:
             return cls._from_format_1(path, arrays, header["metadata"])
@@ -300,135 +310,3 @@ def _shaped(value: Any, name: str, shape: tuple[int, ...]) -> np.ndarray:
     if arr.shape != shape:
         raise InvalidArrayError(name, f"an array of shape {arr.shape}", f"shape {shape}")
     return arr
-
-
-class ResultRecorder:
-    """Preallocated buffers that a servo loop fills, one tick sample and one frame at a time.
-
-    Appending is amortised O(1): buffers are allocated for ``capacity`` samples and doubled
-    when a run records more. The named signals are given up front; their shapes are fixed
-    by the first :meth:`record` call. :meth:`result` copies only the filled part, so it can
-    be called at any time, e.g. when a run diverges.
-
-    Args:
-        feature_target: Target features (m,).
-        camera_pose_target: Target camera pose ``T_O_C`` (4, 4).
-        capacity: Expected number of tick samples (>= 1).
-        n_points: Number of markers n (visibility columns).
-        signal_names: Names of the signals :meth:`record` receives, in its order.
-        metadata: JSON-serialisable dict copied into the result.
-    """
-
-    def __init__(
-        self,
-        feature_target: np.ndarray,
-        camera_pose_target: np.ndarray,
-        capacity: int,
-        *,
-        n_points: int = 3,
-        signal_names: tuple[str, ...] = (),
-        metadata: dict[str, Any] | None = None,
-    ) -> None:
-        if isinstance(capacity, bool) or not isinstance(capacity, (int, np.integer)) or capacity < 1:
-            raise InvalidParameterError("capacity", capacity, "an integer >= 1")
-        if isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer)) or n_points < 1:
-            raise InvalidParameterError("n_points", n_points, "an integer >= 1")
-        names = tuple(signal_names)
-        if len(set(names)) != len(names) or not all(isinstance(n, str) and n for n in names):
-            raise InvalidParameterError("signal_names", names, "distinct non-empty names")
-        self.feature_target = as_array(feature_target, "feature_target", (None,)).copy()
-        self.camera_pose_target = as_pose(camera_pose_target, "camera_pose_target").copy()
-        self.metadata = _normalise_metadata(metadata)
-        self.signal_names = names
-        m, n = self.feature_target.shape[0], int(n_points)
-        self._tick = {
-            "t": np.empty(int(capacity)),
-            "camera_pose": np.empty((int(capacity), 4, 4)),
-            "features": np.empty((int(capacity), m)),
-            "visible": np.empty((int(capacity), n), dtype=bool),
-        }
-        self._signals: list[np.ndarray] | None = None
-        self._n = 0
-        # The frame log is appended to lists (a list append costs a tenth of a numpy row write) and
-        # stacked in `result`: the features and visibility arrays of a frame are new arrays each
-        # frame (the sensor's), so keeping references is safe.
-        self._frames: tuple[list[float], list[Any], list[Any], list[float]] = ([], [], [], [])
-
-    def __len__(self) -> int:
-        return self._n
-
-    @staticmethod
-    def _grown(buffers: dict[str, np.ndarray]) -> None:
-        for name, buf in buffers.items():
-            buffers[name] = np.concatenate([buf, np.empty_like(buf)])
-
-    def record(
-        self, t: float, camera_pose: np.ndarray, features: np.ndarray, visible: Any, values: Sequence[Any]
-    ) -> None:
-        """Append one tick sample; ``values`` are the signals of ``signal_names``, in order (copied).
-
-        Raises:
-            InvalidParameterError: as many values as names, or not.
-        """
-        i = self._n
-        tick = self._tick
-        if i == tick["t"].shape[0]:
-            self._grown(tick)
-            if self._signals is not None:
-                self._signals = [np.concatenate([buf, np.empty_like(buf)]) for buf in self._signals]
-        if len(values) != len(self.signal_names):
-            raise InvalidParameterError(
-                "values", f"{len(values)} signals", f"one per name of {self.signal_names}"
-            )
-        if self._signals is None:
-            capacity = tick["t"].shape[0]
-            self._signals = [np.empty((capacity, *np.shape(value)), dtype=float) for value in values]
-        tick["t"][i] = t
-        tick["camera_pose"][i] = camera_pose
-        tick["features"][i] = features
-        tick["visible"][i] = visible
-        for buf, value in zip(self._signals, values):  # noqa: B905 (lengths checked above)
-            buf[i] = value
-        self._n = i + 1
-
-    def record_frame(self, t: float, features: np.ndarray, visible: Any, update_time: float) -> None:
-        """Append one camera frame: capture time [s], features, visibility, control-update time [s].
-
-        ``features`` and ``visible`` are kept by reference until :meth:`result`: pass arrays
-        that are not modified afterwards (the sensor makes new ones every frame).
-        """
-        frame_t, frame_features, frame_visible, update_times = self._frames
-        frame_t.append(t)
-        frame_features.append(features)
-        frame_visible.append(visible)
-        update_times.append(update_time)
-
-    def result(
-        self, *, status: str = "complete", extra_metadata: dict[str, Any] | None = None
-    ) -> SimulationResult:
-        """The samples recorded so far as a :class:`SimulationResult` (copies).
-
-        Args:
-            status: One of :data:`STATUSES`, stored as ``metadata["status"]``.
-            extra_metadata: Merged over the recorder's metadata (e.g. the error message).
-        """
-        if status not in STATUSES:
-            raise InvalidParameterError("status", status, " or ".join(repr(s) for s in STATUSES))
-        n = self._n
-        frame_t, frame_features, frame_visible, update_times = self._frames
-        m, n_features, n_points = len(frame_t), self.feature_target.shape[0], self._tick["visible"].shape[1]
-        metadata = {**self.metadata, **_normalise_metadata(extra_metadata), "status": status}
-        return SimulationResult(
-            **{name: buf[:n].copy() for name, buf in self._tick.items()},
-            feature_target=self.feature_target.copy(),
-            camera_pose_target=self.camera_pose_target.copy(),
-            signals={
-                name: buf[:n].copy()
-                for name, buf in zip(self.signal_names, self._signals or (), strict=False)
-            },
-            frame_t=np.array(frame_t, dtype=float),
-            frame_features=np.array(frame_features, dtype=float).reshape(m, n_features),
-            frame_visible=np.array(frame_visible, dtype=bool).reshape(m, n_points),
-            update_time=np.array(update_times, dtype=float),
-            metadata=metadata,
-        )

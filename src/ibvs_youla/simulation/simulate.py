@@ -26,9 +26,10 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import as_array, one_of, positive
-from ..controllers import Controller, ServoTask, make, uses_youla_settings
+from .._validation import one_of, positive
+from ..controllers import Controller, ServoTask, YoulaSettings, make, names, uses_youla_settings
 from ..controllers.base import CommandType
+from ..estimation.stereo_pose import check_marker_geometry
 from ..exceptions import InvalidParameterError
 from ..model.arm import Arm
 from ..model.camera import PinholeCamera, StereoCamera, default_camera
@@ -38,7 +39,8 @@ from .free_camera import FreeCameraPlant
 from .kinematic_arm import KinematicArmPlant
 from .loop import ServoLoop
 from .plant import ArmPlant
-from .results import ResultRecorder, SimulationResult, software_versions
+from .recorder import ResultRecorder
+from .results import SimulationResult, software_versions
 from .sensor import MarkerSensor
 from .settings import SimulationSettings
 
@@ -71,9 +73,47 @@ class Beliefs:
                 "beliefs.camera", type(self.camera).__name__, "a StereoCamera, a PinholeCamera or None"
             )
         if self.markers_O is not None:
-            markers = as_array(self.markers_O, "beliefs.markers_O", (None, 3)).copy()
+            markers = check_marker_geometry(self.markers_O, "beliefs.markers_O").copy()
             markers.setflags(write=False)
             object.__setattr__(self, "markers_O", markers)
+
+    def check_against(self, scenario: Scenario, camera: Any, has_arm: bool) -> None:
+        """Beliefs must describe the same kind of world: marker count, feature layout, an arm.
+
+        Raises:
+            InvalidParameterError: a different number of markers than the scenario's, a
+                monocular belief of a stereo camera (or the reverse), an arm belief without an
+                arm plant.
+        """
+        if self.markers_O is not None and self.markers_O.shape != scenario.markers_O.shape:  # type: ignore[union-attr]
+            raise InvalidParameterError(
+                "beliefs.markers_O",
+                f"{self.markers_O.shape[0]} markers",
+                f"the scenario's {scenario.n_points} (a belief about the same markers)",
+            )
+        if self.camera is not None and isinstance(self.camera, StereoCamera) != isinstance(
+            camera, StereoCamera
+        ):
+            raise InvalidParameterError(
+                "beliefs.camera",
+                type(self.camera).__name__,
+                f"a {type(camera).__name__} like the true camera (the same feature layout)",
+            )
+        if self.arm is not None and not has_arm:
+            raise InvalidParameterError(
+                "beliefs.arm", self.arm.name, "None on the free-flying camera (no arm)"
+            )
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data for the run's specification (the arm by name and hand-eye transform)."""
+        arm = None
+        if self.arm is not None:
+            arm = {"name": self.arm.name, "T_E_C": np.asarray(self.arm.T_E_C).tolist()}
+        return {
+            "arm": arm,
+            "camera": None if self.camera is None else repr(self.camera),
+            "markers_O": None if self.markers_O is None else self.markers_O.tolist(),
+        }
 
 
 def simulate(
@@ -141,8 +181,9 @@ def simulate(
         if not (isinstance(value, kind) or (value is None and name != "scenario")):
             valid = " or ".join(k.__name__ for k in (kind if isinstance(kind, tuple) else (kind,)))
             raise InvalidParameterError(name, type(value).__name__, f"a {valid}")
-    if not isinstance(adaptive, (bool, np.bool_)):
-        raise InvalidParameterError("adaptive", adaptive, "True or False")
+    for flag, value in (("adaptive", adaptive), ("progress", progress)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise InvalidParameterError(flag, value, "True or False")
     settings = SimulationSettings() if settings is None else settings
     beliefs = Beliefs() if beliefs is None else beliefs
     ctrl = _controller(controller, bool(adaptive), settings)
@@ -152,7 +193,15 @@ def simulate(
     else:
         arm = Arm.irb4600() if arm is None else arm
         world = _arm_world(scenario, plant, arm, settings)
+    n_ticks = round(duration / world.dt)
+    if n_ticks < 1:
+        raise InvalidParameterError(
+            "duration",
+            duration,
+            f"at least one tick of the {plant!r} plant, {world.dt:g} s (settings' rates)",
+        )
     sensor = MarkerSensor(camera, scenario.markers_O, virtual_points=scenario.virtual_points)
+    beliefs.check_against(scenario, camera, world.arm is not None)
     model_arm = None
     if world.arm is not None:
         model_arm = world.arm if beliefs.arm is None else beliefs.arm
@@ -166,30 +215,52 @@ def simulate(
         tau_in=settings.tau_in,
         dt=world.dt,
     )
+    joints = model_arm is not None
     task = ServoTask(
         camera=camera if beliefs.camera is None else beliefs.camera,
         markers_O=scenario.markers_O if beliefs.markers_O is None else beliefs.markers_O,
+        # taught by showing: the goal is what the true camera saw at the true target pose
         feature_target=sensor.features_at(world.T_O_C_target),
         T_O_C_target=world.T_O_C_target,
         tick_period=world.dt,
         frame_period=world.dt * world.ticks_per_frame,
         virtual_points=scenario.virtual_points,
         arm=model_arm,
-        q_start=scenario.q_start,
-        q_target=scenario.q_target,
-        T_O_C_start=world.T_O_C_start,
+        q_start=scenario.q_start if joints else None,
+        q_target=scenario.q_target if joints else None,
+        # what the controller believes: its arm at the encoder reading (it cannot see an offset)
+        T_O_C_start=model_arm.camera_pose(scenario.q_start) if joints else world.T_O_C_start,
     )
     ctrl.reset(task)
-    n_ticks = round(duration / world.dt)
     record_every = settings.record_every
     command_signals = (ctrl.command_type.signal, *(a.output_type.signal for a in chain))
+    declared = ctrl.signals()
+    if not isinstance(declared, dict):
+        raise InvalidParameterError(
+            f"{type(ctrl).__name__}.signals()",
+            type(declared).__name__,
+            "a dict name -> array of a fixed shape",
+        )
+    n_joints = getattr(world.plant, "n_joints", 0)
+    shapes = {
+        **{name: (n_joints,) for name in world.plant.signal_names},
+        **{name: (6,) if name == "camera_twist" else (n_joints,) for name in command_signals},
+        **{str(name): np.shape(value) for name, value in declared.items()},
+    }
+    if len(shapes) != len(world.plant.signal_names) + len(command_signals) + len(declared):
+        raise InvalidParameterError(
+            f"{type(ctrl).__name__}.signals()",
+            sorted(declared),
+            f"names other than the plant's and the commands' "
+            f"({', '.join((*world.plant.signal_names, *command_signals))})",
+        )
     metadata = _metadata(scenario, ctrl, plant, world, camera, settings, beliefs, n_ticks)
     recorder = ResultRecorder(
         task.feature_target,
         world.T_O_C_target,
         n_ticks // record_every + 2,
         n_points=sensor.n_points,
-        signal_names=(*world.plant.signal_names, *command_signals, *ctrl.signals()),
+        signals=shapes,
         metadata=metadata,
     )
     loop = ServoLoop(
@@ -218,16 +289,48 @@ def _controller(controller: Any, adaptive: bool, settings: SimulationSettings) -
                 f"True for {controller!r} (only the paper's controllers have a fixed-J "
                 "variant; pass options with iy.controllers.make)",
             )
+        _no_paper_gains(settings, controller)
         return make(controller)
-    missing = [a for a in ("reset", "update", "command", "command_type") if not hasattr(controller, a)]
-    if missing:
+    if isinstance(controller, type):
+        raise InvalidParameterError(
+            "controller",
+            f"the class {controller.__name__}",
+            "a controller object: an instance, e.g. MyController()",
+        )
+    if not isinstance(controller, Controller):
         raise InvalidParameterError(
             "controller",
             type(controller).__name__,
-            f"a registered name or a controller object (an iy.controllers.Controller; missing {missing})",
+            "a registered name (" + ", ".join(repr(n) for n in names()) + ") or an iy.controllers.Controller",
+        )
+    if not hasattr(controller, "command_type"):
+        raise InvalidParameterError(
+            f"{type(controller).__name__}.command_type", None, " or ".join(c.value for c in CommandType)
         )
     CommandType.parse(controller.command_type)
+    if not adaptive:
+        raise InvalidParameterError(
+            "adaptive", adaptive, "True when the controller is an object (it carries its own options)"
+        )
+    _no_paper_gains(settings, type(controller).__name__)
     return controller
+
+
+def _no_paper_gains(settings: SimulationSettings, who: str) -> None:
+    """The paper controller's gains in ``settings`` apply to the named paper controllers only."""
+    default = YoulaSettings()
+    changed = [
+        f
+        for f in YoulaSettings.field_names()
+        if f != "tau_in" and getattr(settings, f) != getattr(default, f)
+    ]
+    if changed:
+        raise InvalidParameterError(
+            "settings",
+            ", ".join(f"{f}={getattr(settings, f)!r}" for f in changed),
+            f"the defaults for {who}: these are gains of the paper's controllers ('fb', 'ff+fb'); "
+            "another controller takes its options as an object (tau_in stays: it is the inner loop's)",
+        )
 
 
 @dataclass(frozen=True)
@@ -296,7 +399,7 @@ def _metadata(
         "scenario": scenario.name,
         "scenario_description": scenario.description,
         "controller": ctrl.name,
-        "adaptive": bool(spec.get("adaptive", True)),
+        "adaptive": spec.get("adaptive"),  # the paper's controllers' option; None for others
         "plant": plant,
         "duration": n_ticks * world.dt,
         "joint_rate_hz": 1.0 / world.dt if plant != "free-camera" else None,
@@ -314,11 +417,7 @@ def _metadata(
             "camera": repr(camera),
             "settings": settings.to_dict(),
             "duration": n_ticks * world.dt,
-            "beliefs": {
-                "arm": None if beliefs.arm is None else beliefs.arm.name,
-                "camera": None if beliefs.camera is None else repr(beliefs.camera),
-                "markers_O": None if beliefs.markers_O is None else beliefs.markers_O.tolist(),
-            },
+            "beliefs": beliefs.to_dict(),
         },
     }
     if joints:

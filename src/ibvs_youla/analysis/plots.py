@@ -142,8 +142,11 @@ def _title(result: SimulationResult, what: str) -> str:
     meta = result.metadata
     if "scenario" not in meta:
         return what
-    loop = "adaptive" if meta.get("adaptive", True) else "fixed"
-    return f"{meta['scenario']}, {meta.get('controller', '?')} ({loop} outer loop): {what}"
+    adaptive = meta.get("adaptive")  # the paper's controllers' option; None for other controllers
+    loop = "" if adaptive is None else f" ({'adaptive' if adaptive else 'fixed'} outer loop)"
+    plant = meta.get("plant", "dynamic")
+    where = "" if plant == "dynamic" else f" on the {plant} plant"
+    return f"{meta['scenario']}, {meta.get('controller', '?')}{loop}{where}: {what}"
 
 
 def plot_joint_angles(result: SimulationResult) -> Figure:

@@ -100,14 +100,16 @@ def _summary(result: Any, arm: Any) -> tuple[str, dict[str, Any]]:
         for k in ("peak_joint_speed_ratio", "peak_torque_ratio")
     )
     ratios = ", ".join(f"{v:.3g}" for v in speed)
-    loop = "adaptive" if meta.get("adaptive") else "fixed"
+    adaptive = meta.get("adaptive")  # None for controllers other than the paper's
+    loop = "" if adaptive is None else f" with the {'adaptive' if adaptive else 'fixed'} outer loop"
     lines = [
-        f"{meta.get('scenario')}: {meta.get('controller')} with the {loop} outer loop on the "
+        f"{meta.get('scenario')}: {meta.get('controller')}{loop} on the "
         f"{meta.get('plant', 'dynamic')} plant, {result.duration:g} s simulated "
         f"(status {meta.get('status')})",
         f"  outcome           {outcome.kind}; max |e| per marker "
         + ", ".join(f"{v:.2g}" for v in outcome.point_errors_m)
-        + f" m; ||e|| changed {100 * outcome.error_change:+.2g} % over the last 20 % of the run",
+        + f" m; ||e|| changed {100 * outcome.error_change:+.2g} % over the last "
+        + f"{100 * outcome.window:.0f} % of the run",
         f"  final image error max |e| = {outcome.final_image_error_m:.3g} m on the sensor",
         f"  final pose error  {outcome.position_error_mm:.3g} mm, {outcome.rotation_error_deg:.3g} deg",
         f"  2 % settling      {np.max(settle):.3g} s (slowest of {result.features.shape[1]} coordinates; "

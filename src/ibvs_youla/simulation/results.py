@@ -87,7 +87,8 @@ class SimulationResult:
         camera_pose: True camera pose ``T_O_C`` (N, 4, 4) [m].
         camera_pose_target: Target camera pose ``T_O_C`` (4, 4) [m].
         features: Last measured features (N, m), point-major: [u_l, u_r, v] per point for a
-            stereo camera (Eq. (24)), [u, v] for a monocular one [m on the sensor].
+            stereo camera (Eq. (24)), [u, v] for a monocular one [m on the sensor; unitless
+            normalized coordinates for ``PinholeCamera.normalized()``].
         feature_target: Target features (m,).
         visible: Per-point physical visibility (N, n) (depth sign, field of view, depth range).
         signals: Name -> (N, ...) array (see above).

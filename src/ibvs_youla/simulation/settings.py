@@ -56,7 +56,8 @@ class SimulationSettings:
             track when the arm moves far between camera frames: with the paper's 1 ms
             feedforward and a 100 Hz camera, scenario 1 jumps to the wrist-flipped branch
             (q4 + 180 deg, q6 + 180 deg) in the first frame and never reaches the target.
-        record_every: Keep every n-th joint-loop sample in the result.
+        record_every: Keep every n-th tick in the result (joint-loop samples on an arm,
+            control periods on the free-flying camera).
     """
 
     joint_rate_hz: float = 1000.0

@@ -9,8 +9,8 @@ import pytest
 from matplotlib.figure import Figure
 
 from ibvs_youla.analysis import plots
-from ibvs_youla.controllers import CommandType, Controller
 from ibvs_youla.simulation.results import SimulationResult
+from servo_helpers import MARKERS_4, ConstantTwist
 
 N = 40
 
@@ -175,25 +175,12 @@ def test_plot_design_draws_python_control_responses():
 
 
 # --------------------------------------------------------------- any markers, either camera
-class ConstantTwist(Controller):
-    """The same camera twist [v; w] in {C} at every frame."""
-
-    command_type = CommandType.CAMERA_TWIST
-    name = "constant-twist"
-
-    def __init__(self, twist):
-        self.twist = np.asarray(twist, float)
-
-    def command(self, reading):
-        return self.twist
-
-
 @pytest.fixture(scope="module")
 def four_marker_runs():
     """0.2 s free-camera runs (no joint signals) with four markers: monocular normalized, stereo ZED 2."""
     import ibvs_youla as iy
 
-    markers = np.array([[-0.2, -0.1, 2.0], [0.2, -0.1, 2.1], [0.15, 0.2, 1.9], [-0.1, 0.15, 2.2]])
+    markers = MARKERS_4
     target = np.eye(4)
     target[:3, 3] = (0.05, -0.02, 0.1)  # [m] so the image error is not zero at the start
     scenario = iy.Scenario.free_camera(np.eye(4), target, markers)

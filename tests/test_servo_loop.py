@@ -12,8 +12,7 @@ from ibvs_youla.exceptions import IncompatibleCommandError, InvalidParameterErro
 from ibvs_youla.model.camera import PinholeCamera, StereoCamera
 from ibvs_youla.simulation.sensor import MarkerSensor
 from ibvs_youla.simulation.simulate import PLANTS
-
-MARKERS_4 = np.array([[-0.2, -0.1, 2.0], [0.2, -0.1, 2.1], [0.15, 0.2, 1.9], [-0.1, 0.15, 2.2]])  # [m]
+from servo_helpers import MARKERS_4, ConstantTwist
 
 
 def _pose(xyz, yaw=0.0):
@@ -22,25 +21,6 @@ def _pose(xyz, yaw=0.0):
     T[:2, :2] = [[c, -s], [s, c]]
     T[:3, 3] = xyz
     return T
-
-
-class ConstantTwist(Controller):
-    command_type = CommandType.CAMERA_TWIST
-    name = "constant-twist"
-
-    def __init__(self, twist=(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)):
-        self.twist = np.asarray(twist, dtype=float)
-
-    def reset(self, task):
-        super().reset(task)
-        self.frames, self.readings = [], []
-
-    def update(self, frame, reading):
-        self.frames.append(frame)
-        self.readings.append(reading)
-
-    def command(self, reading):
-        return self.twist
 
 
 class IbvsAtTarget(Controller):

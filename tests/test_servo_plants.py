@@ -11,8 +11,7 @@ from ibvs_youla.controllers import CommandType, Controller
 from ibvs_youla.exceptions import InvalidParameterError, SimulationDivergedError
 from ibvs_youla.simulation.free_camera import FreeCameraPlant
 from ibvs_youla.simulation.kinematic_arm import KinematicArmPlant, inner_closed_loop_matrices
-
-MARKERS_4 = np.array([[-0.2, -0.1, 2.0], [0.2, -0.1, 2.1], [0.15, 0.2, 1.9], [-0.1, 0.15, 2.2]])  # [m]
+from servo_helpers import MARKERS_4, ConstantJointVelocity, ConstantTwist
 
 
 def screw_pose(v, w_z, t):
@@ -32,28 +31,6 @@ def start_pose():
     T[:3, :3] = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     T[:3, 3] = [0.3, -0.2, 0.1]
     return T
-
-
-class ConstantTwist(Controller):
-    command_type = CommandType.CAMERA_TWIST
-    name = "constant-twist"
-
-    def __init__(self, twist):
-        self.twist = np.asarray(twist, dtype=float)
-
-    def command(self, reading):
-        return self.twist
-
-
-class ConstantJointVelocity(Controller):
-    command_type = CommandType.JOINT_VELOCITY
-    name = "constant-dq"
-
-    def __init__(self, dq):
-        self.dq = np.asarray(dq, dtype=float)
-
-    def command(self, reading):
-        return self.dq
 
 
 class PositionStep(Controller):

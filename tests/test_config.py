@@ -71,7 +71,7 @@ def test_scenario_written_in_full():
     table = {
         "q_start_deg": [0, 0, 0, 0, 30, 0],
         "q_target_deg": [10, 5, 0, 0, 25, 0],
-        "markers_O": [[3.0, 0.0, 1.0], [3.0, 0.5, 0.0], [3.5, -0.5, 0.5]],
+        "markers_O": [[3.0, 0.0, 1.0], [3.0, 0.5, 0.0], [3.5, -0.5, 0.5], [3.2, 0.2, 0.8]],
     }
     sc = parse_config({"scenario": table}).scenario
     np.testing.assert_allclose(np.degrees(sc.q_target), table["q_target_deg"], rtol=0, atol=1e-12)
@@ -105,7 +105,11 @@ def test_settings_keys_cover_every_simulation_setting():
         ({"scenario": {"preset": "paper-1", "q_start": [0] * 6}}, "scenario.q_start", "q_start_deg"),
         ({"scenario": {"preset": "paper-1", "q_start_deg": [0] * 5}}, "scenario.q_start_deg", "6 finite"),
         ({"scenario": {"preset": "paper-1", "joint_offset_deg": "1"}}, "scenario.joint_offset_deg", "number"),
-        ({"scenario": {"preset": "paper-1", "markers_O": [[0, 0, 0]] * 2}}, "scenario.markers_O", "three"),
+        (
+            {"scenario": {"preset": "paper-1", "markers_O": [[0, 0, 0]] * 2}},
+            "scenario.markers_O",
+            "three or more",
+        ),
         (
             {"scenario": {"preset": "paper-1", "markers_O": [[0, 0, 0], [1, 1, 1], [2, 2, 2]]}},
             "scenario.markers_O",

@@ -132,8 +132,8 @@ def _vector(n: int, *, scalar_ok: bool = False) -> Check:
 
 
 def _points(key: str, value: Any) -> np.ndarray:
-    valid = "three points [[x, y, z], [x, y, z], [x, y, z]] in metres"
-    if not isinstance(value, list) or len(value) != 3:
+    valid = "three or more points [[x, y, z], [x, y, z], [x, y, z], ...] in metres"
+    if not isinstance(value, list) or len(value) < 3:
         raise ConfigError(key, value, valid)
     try:
         return np.array([_vector(3)(key, p) for p in value])
@@ -228,7 +228,7 @@ def _rename(err: IbvsYoulaError, table: str, aliases: Mapping[str, str] | None =
         return ConfigError(f"{table}.{key}", err.value, err.valid)
     if isinstance(err, DegenerateMarkersError):
         return ConfigError(
-            f"{table}.markers_O", np.asarray(err.points).tolist(), "three non-collinear points"
+            f"{table}.markers_O", np.asarray(err.points).tolist(), "three or more non-collinear points"
         )
     if isinstance(err, InvalidArrayError):
         key = (aliases or {}).get(err.name, err.name)

@@ -25,6 +25,7 @@ __all__ = [
     "JointLimitError",
     "ModelLoadError",
     "PointBehindCameraError",
+    "PoseEstimationError",
     "SimulationDivergedError",
     "SingularConfigurationError",
     "UnreachablePoseError",
@@ -197,6 +198,18 @@ class SimulationDivergedError(IbvsYoulaError):
         self.value = value
         self.bound = bound
         self.partial = partial
+        super().__init__(message)
+
+
+class PoseEstimationError(IbvsYoulaError):
+    """A pose could not be estimated from an image (e.g. OpenCV's PnP found no solution).
+
+    Attributes:
+        method: The estimator that failed (e.g. ``"sqpnp"``).
+    """
+
+    def __init__(self, method: str, message: str) -> None:
+        self.method = method
         super().__init__(message)
 
 

@@ -14,9 +14,9 @@ controller updates on it. Then, every tick, in this order:
 A run ends early, with a status in the result rather than an exception, when the true
 camera loses a marker (``"markers_lost"``: behind the camera, seen by the sensor) or the
 controller's own models fail on a valid image (``"estimate_failed"``: e.g. no IK branch
-within the joint limits reaches the pose seen, Eq. (62), or a believed marker lies behind
-the camera). A diverging plant raises :class:`~ibvs_youla.exceptions.SimulationDivergedError`,
-and Ctrl-C a ``KeyboardInterrupt``, each with the samples recorded so far in
+within the joint limits reaches the pose seen, Eq. (62), a PnP finds no pose, or a believed
+marker lies behind the camera). A diverging plant raises
+:class:`~ibvs_youla.exceptions.SimulationDivergedError`, and Ctrl-C a ``KeyboardInterrupt``, each with the samples recorded so far in
 ``error.partial`` (status ``"diverged"``, ``"interrupted"``). The first command is checked
 (a finite array of the command type's shape); later ones are left to the plant's
 divergence test.
@@ -40,6 +40,7 @@ from ..exceptions import (
     InvalidDisparityError,
     InvalidParameterError,
     PointBehindCameraError,
+    PoseEstimationError,
     SimulationDivergedError,
     UnreachablePoseError,
 )
@@ -149,7 +150,12 @@ class ServoLoop:
                     tic = clock()
                     try:
                         controller.update(frame, reading)
-                    except (PointBehindCameraError, InvalidDisparityError, UnreachablePoseError) as err:
+                    except (
+                        PointBehindCameraError,
+                        InvalidDisparityError,
+                        UnreachablePoseError,
+                        PoseEstimationError,
+                    ) as err:
                         # the controller's own models failed on a valid image (e.g. Eq. (62) has no
                         # IK branch within the joint limits, or a belief puts a marker behind the camera)
                         self._reason = f"t = {t:.6g} s: {type(controller).__name__}'s estimate failed: {err}"

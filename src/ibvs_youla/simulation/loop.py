@@ -16,10 +16,10 @@ camera loses a marker (``"markers_lost"``: behind the camera, seen by the sensor
 controller's own models fail on a valid image (``"estimate_failed"``: e.g. no IK branch
 within the joint limits reaches the pose seen, Eq. (62), a PnP finds no pose, or a believed
 marker lies behind the camera). A diverging plant raises
-:class:`~ibvs_youla.exceptions.SimulationDivergedError`, and Ctrl-C a ``KeyboardInterrupt``, each with the samples recorded so far in
-``error.partial`` (status ``"diverged"``, ``"interrupted"``). The first command is checked
-(a finite array of the command type's shape); later ones are left to the plant's
-divergence test.
+:class:`~ibvs_youla.exceptions.SimulationDivergedError`, and Ctrl-C a ``KeyboardInterrupt``,
+each with the samples recorded so far in ``error.partial`` (status ``"diverged"``,
+``"interrupted"``). The first command is checked (a finite array of the command type's
+shape); later ones are left to the plant's divergence test.
 
 The loop times its phases (wall clock, summed over the run) and stores them in
 ``metadata["phase_seconds"]``: ``frame`` (the encoder reading, the true camera pose, the

@@ -1,11 +1,19 @@
 """Servo controllers by name: the one place a controller is registered.
 
 ``simulate()``, the command line, TOML configs and ``reproduce`` all resolve controller
-names here, so adding a controller means one :func:`register` call next to its class.
+names here. A controller module lists its entries in a ``REGISTRATIONS`` tuple of
+``(name, factory, summary)``; adding a controller means adding its module to
+``_BASELINES`` below (or one :func:`register` call at run time).
+
+The paper's controllers ("fb", "ff+fb") command joint positions; the methods the paper
+compares itself with command a camera twist and run on every plant: classical IBVS with L
+at the current, desired or mean features (Chaumette & Hutchinson 2006), PBVS, 2.5-D visual
+servoing (Malis, Chaumette & Boudet 1999), hybrid switched IBVS/PBVS (Gans & Hutchinson
+2007) and MPC-IBVS (a QP per frame through qpsolvers).
 
 >>> from ibvs_youla import controllers
 >>> controllers.names()
-('fb', 'ff+fb')
+('fb', 'ff+fb', 'ibvs-current', 'ibvs-desired', 'ibvs-mean', 'pbvs', '2.5d', 'hybrid', 'mpc-ibvs')
 >>> controllers.make("ff+fb", adaptive=False).command_type.value
 'joint_position'
 """
@@ -127,3 +135,19 @@ register(
     f"the paper's controller, {VARIANTS['ff+fb']} (Eq. (47)-(49), (53)-(62))",
     youla_settings=True,
 )
+
+
+# The modules of the methods the paper compares itself with, in registration order.
+_BASELINES = ("ibvs", "pbvs", "two_half_d", "hybrid", "mpc_ibvs")
+
+
+def _register_baselines() -> None:
+    import importlib
+
+    for module_name in _BASELINES:
+        module = importlib.import_module(f".{module_name}", __name__)
+        for name, factory, summary in module.REGISTRATIONS:
+            register(name, factory, summary)
+
+
+_register_baselines()

@@ -352,7 +352,9 @@ def test_bad_input_is_rejected_with_what_is_valid():
         tick_period=T,
         frame_period=T,
     )
-    with pytest.raises(InvalidParameterError, match=r"'3 points'.*4 or more points for a PinholeCamera"):
+    with pytest.raises(
+        InvalidParameterError, match=r"'3 points'.*4 or more points for 'ibvs-desired' with a PinholeCamera"
+    ):
         ClassicalIBVS("desired").reset(three)
     task = ServoTask(
         camera=object(),

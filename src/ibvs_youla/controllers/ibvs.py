@@ -37,10 +37,10 @@ import numpy as np
 from .._geometry import inverse_pose, transform_points
 from .._validation import non_negative, one_of, positive
 from ..control.singular_values import SingularValuePolicy
-from ..estimation.monocular_pose import estimate_camera_pose
 from ..exceptions import InvalidParameterError
-from ..model.camera import PinholeCamera, StereoCamera, points_interaction_matrix, triangulate_points
+from ..model.camera import points_interaction_matrix
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
+from .image_points import current_interaction_matrix, feature_rows
 
 __all__ = ["INTERACTIONS", "PINV_THRESHOLD", "REGISTRATIONS", "AdaptiveGain", "ClassicalIBVS"]
 
@@ -160,34 +160,15 @@ class ClassicalIBVS(Controller):
     # ------------------------------------------------------------------ run
     def reset(self, task: ServoTask) -> None:
         """Check the camera and point count; build L* when the law needs it."""
-        camera, n = task.camera, task.n_points
-        if isinstance(camera, StereoCamera):
-            n_min, rows = 3, 3
-        elif isinstance(camera, PinholeCamera):
-            n_min, rows = 4, 2
-        else:
-            raise InvalidParameterError(
-                "task.camera", type(camera).__name__, "a StereoCamera or a PinholeCamera"
-            )
-        if n < n_min:
-            why = "the monocular pose (PnP) and a rank-6 L" if rows == 2 else "a rank-6 L"
-            raise InvalidParameterError(
-                "task.markers_O",
-                f"{n} points",
-                f"{n_min} or more points for a {type(camera).__name__} ({why})",
-            )
+        rows = feature_rows(task, self.name)
         target = np.asarray(task.feature_target, dtype=float)
-        if target.shape != (rows * n,):
-            raise InvalidParameterError(
-                "task.feature_target", f"an array of shape {target.shape}", f"shape ({rows * n},)"
-            )
         super().reset(task)
         self._feature_target = target
         self._rows = rows
         self._L_desired = None
         if self.interaction != "current":
             P_C_target = transform_points(inverse_pose(task.T_O_C_target), task.markers_O)
-            self._L_desired = points_interaction_matrix(camera, P_C_target, task.virtual_points)
+            self._L_desired = points_interaction_matrix(task.camera, P_C_target, task.virtual_points)
         self._twist = np.zeros(6)
         self._lambda = np.zeros(1)
 
@@ -207,15 +188,7 @@ class ClassicalIBVS(Controller):
 
     def interaction_matrix(self, features: np.ndarray) -> np.ndarray:
         """L(s, Z) (m, 6) at the given features, depths from the controller's model (class docstring)."""
-        task = self.task
-        camera, n = task.camera, task.n_points
-        if self._rows == 3:
-            P_C = triangulate_points(camera, features.reshape(n, 3), task.virtual_points)
-        else:
-            T_O_C = estimate_camera_pose(camera, features, task.markers_O)
-            Z = transform_points(inverse_pose(T_O_C), task.markers_O)[:, 2]  # [m]
-            P_C = np.column_stack((features.reshape(n, 2) * (Z / camera.focal_length)[:, None], Z))
-        return points_interaction_matrix(camera, P_C, task.virtual_points)
+        return current_interaction_matrix(self.task, features, self._rows)
 
     def pinv(self, L: np.ndarray) -> np.ndarray:
         """L^+ (6, m) through the SVD, singular values <= 1e-6 sigma_max dropped (class docstring)."""

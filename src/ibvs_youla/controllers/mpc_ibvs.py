@@ -77,12 +77,11 @@ from typing import Any
 import numpy as np
 import qpsolvers
 
-from .._geometry import inverse_pose, transform_points
 from .._validation import non_negative, one_of, positive
-from ..estimation.monocular_pose import estimate_camera_pose
 from ..exceptions import InvalidParameterError
-from ..model.camera import PinholeCamera, StereoCamera, points_interaction_matrix, triangulate_points
+from ..model.camera import StereoCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
+from .image_points import current_interaction_matrix, feature_rows
 
 __all__ = ["FALLBACKS", "REGISTRATIONS", "MpcIBVS"]
 
@@ -216,18 +215,7 @@ class MpcIBVS(Controller):
     def reset(self, task: ServoTask) -> None:
         """Check the camera, points and bounds; build the parts of the QP that do not change."""
         camera, n = task.camera, task.n_points
-        if isinstance(camera, StereoCamera):
-            n_min, rows = 3, 3
-        elif isinstance(camera, PinholeCamera):
-            n_min, rows = 4, 2
-        else:
-            raise InvalidParameterError(
-                "task.camera", type(camera).__name__, "a StereoCamera or a PinholeCamera"
-            )
-        if n < n_min:
-            raise InvalidParameterError(
-                "task.markers_O", f"{n} points", f"{n_min} or more points for a {type(camera).__name__}"
-            )
+        rows = feature_rows(task, self.name)
         T = float(task.frame_period)
         a = 1.0 - self.gain * T  # reference decay per frame
         if a < 0.0:
@@ -235,10 +223,6 @@ class MpcIBVS(Controller):
                 "gain", self.gain, f"a number in (0, 1/T] = (0, {1.0 / T:g}] 1/s (T = {T:g} s per frame)"
             )
         target = np.asarray(task.feature_target, dtype=float)
-        if target.shape != (rows * n,):
-            raise InvalidParameterError(
-                "task.feature_target", f"an array of shape {target.shape}", f"shape ({rows * n},)"
-            )
         A_point, b_point = _image_box(camera, self.image_half_extent, self.margin)
         A_img, b_img = np.kron(np.eye(n), A_point), np.tile(b_point, n)  # A_img s <= b_img
         slack = b_img - A_img.dot(target)
@@ -263,15 +247,7 @@ class MpcIBVS(Controller):
 
     def interaction_matrix(self, features: np.ndarray) -> np.ndarray:
         """L(s, Z) (m, 6) at the measured features, depths from the controller's model (module docstring)."""
-        task = self.task
-        camera, n = task.camera, task.n_points
-        if self._rows == 3:
-            P_C = triangulate_points(camera, features.reshape(n, 3), task.virtual_points)
-        else:
-            T_O_C = estimate_camera_pose(camera, features, task.markers_O)
-            Z = transform_points(inverse_pose(T_O_C), task.markers_O)[:, 2]  # [m]
-            P_C = np.column_stack((features.reshape(n, 2) * (Z / camera.focal_length)[:, None], Z))
-        return points_interaction_matrix(camera, P_C, task.virtual_points)
+        return current_interaction_matrix(self.task, features, self._rows)
 
     def qp(self, features: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(P, q, G, h) of min 1/2 x^T P x + q^T x s.t. G x <= h over x = [v_0; ..; v_{N-1}] (6N,).

@@ -26,7 +26,7 @@ KERNEL = "ibvs-youla-test"
 
 def test_the_notebooks_are_there():
     names = [p.name for p in NOTEBOOKS]
-    assert {"01_reproduce_paper.ipynb", "02_controller_design.ipynb"} <= set(names)
+    assert {"01_reproduce_paper.ipynb", "02_controller_design.ipynb", "04_baselines.ipynb"} <= set(names)
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)

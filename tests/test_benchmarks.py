@@ -67,3 +67,52 @@ def test_simulation_benchmark_writes_realtime_factors(tmp_path):
     for case in saved["cases"].values():
         assert case["status"] == "complete"
         assert sum(case["split"]["fraction"].values()) == pytest.approx(1.0)
+
+
+@pytest.mark.slow
+def test_controllers_benchmark_writes_every_method(tmp_path):
+    from ibvs_youla import controllers
+
+    out = tmp_path / "controllers.json"
+    report = load("bench_controllers").main(["--configs", "3", "--repeats", "1", "--json", str(out)])
+    saved = json.loads(out.read_text())
+    names = controllers.names()
+    assert tuple(saved["controllers"]) == names  # every registered method, in registry order
+    for name, entry in saved["controllers"].items():
+        for key in ("median_us", "p95_us", "floor_us", "ratio_to_floor"):
+            assert finite_positive(entry[key]), (name, key)
+        assert entry["ratio_to_floor"] == pytest.approx(entry["median_us"] / entry["floor_us"])
+        assert entry["n"] == 3
+        assert entry["case"] == ("stereo" if name in ("fb", "ff+fb") else "mono")
+    assert set(saved["cases"]["stereo"]["methods"]) == set(names)
+    assert set(saved["cases"]["mono"]["methods"]) == set(names) - {"fb", "ff+fb"}
+    floor_calls = saved["cases"]["mono"]["floor_calls_median_us"]
+    assert saved["controllers"]["mpc-ibvs"]["floor_us"] == pytest.approx(
+        floor_calls["solvepnp"] + floor_calls["daqp"]
+    )
+    for name in ("numpy-ibvs", "library-ibvs-law"):
+        assert finite_positive(saved["reference"][name]["median_us"])
+        assert saved["reference"][name]["n"] == 3
+    assert "visp-computeControlLaw" in saved["reference"]["not_timed"]
+    assert saved["machine"]["cores"] >= 1 and saved["machine"]["date"]
+    assert report["controllers"] == saved["controllers"]
+
+
+def test_controllers_benchmark_reference_law_is_classical_ibvs():
+    """The numpy reference law computes what ClassicalIBVS computes from the same features and depths."""
+    import numpy as np
+
+    from ibvs_youla import PinholeCamera
+    from ibvs_youla.controllers.ibvs import ClassicalIBVS
+    from ibvs_youla.model.camera import points_interaction_matrix
+
+    rng = np.random.default_rng(3)
+    P_C = np.column_stack((rng.uniform(-0.2, 0.2, (4, 2)), rng.uniform(0.6, 1.2, 4)))  # [m]
+    s = (P_C[:, :2] / P_C[:, 2:]).ravel()
+    s_target = s + 0.05 * rng.standard_normal(8)
+    camera = PinholeCamera.normalized()
+    L = points_interaction_matrix(camera, P_C, False)
+    expected = -0.5 * ClassicalIBVS().pinv(L).dot(s - s_target)
+    got = load("bench_controllers").numpy_ibvs(s, P_C[:, 2], s_target, 0.5)
+    assert np.max(np.abs(got - expected)) < 1e-12
+    assert np.linalg.norm(expected) > 1e-3  # a non-trivial twist

@@ -9,7 +9,11 @@ from pathlib import Path
 from ..exceptions import IbvsYoulaError
 from .base import UsageError
 
-BENCHMARKS = {"outer": "bench_outer_loop", "simulation": "bench_simulation"}
+BENCHMARKS = {
+    "outer": "bench_outer_loop",
+    "simulation": "bench_simulation",
+    "controllers": "bench_controllers",
+}
 
 
 def _benchmarks_dir() -> Path:

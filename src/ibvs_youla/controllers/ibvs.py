@@ -165,10 +165,11 @@ class ClassicalIBVS(Controller):
         super().reset(task)
         self._feature_target = target
         self._rows = rows
-        self._L_desired = None
+        self._L_desired = self._L_desired_pinv = None
         if self.interaction != "current":
             P_C_target = transform_points(inverse_pose(task.T_O_C_target), task.markers_O)
             self._L_desired = points_interaction_matrix(task.camera, P_C_target, task.virtual_points)
+            self._L_desired_pinv = self.pinv(self._L_desired)  # constant: factorized once
         self._twist = np.zeros(6)
         self._lambda = np.zeros(1)
 
@@ -176,15 +177,16 @@ class ClassicalIBVS(Controller):
         """One camera frame: v = -lambda L_e^+ e (Eq. (5))."""
         e = frame.features - self._feature_target
         if self.interaction == "desired":
-            L = self._L_desired
+            L_pinv = self._L_desired_pinv
         else:
             L = self.interaction_matrix(frame.features)
             if self.interaction == "mean":
                 L = 0.5 * (L + self._L_desired)
+            L_pinv = self.pinv(L)
         gain = self.gain
         lam = gain(float(np.max(np.abs(e)))) if isinstance(gain, AdaptiveGain) else gain
         self._lambda = np.array([lam])
-        self._twist = -lam * self.pinv(L).dot(e)
+        self._twist = -lam * L_pinv.dot(e)
 
     def interaction_matrix(self, features: np.ndarray) -> np.ndarray:
         """L(s, Z) (m, 6) at the given features, depths from the controller's model (class docstring)."""

@@ -1,4 +1,4 @@
-"""The argument definitions of ``ibvs-youla`` and its five subcommands."""
+"""The argument definitions of ``ibvs-youla`` and its six subcommands."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from typing import NoReturn
 from .. import __version__, controllers
 from .. import scenarios as _scenarios
 from ..simulation.simulate import PLANTS
-from . import bench, design, reproduce, simulate, view
+from . import bench, compare, design, reproduce, simulate, view
 from .base import PROG, UsageError
 
 
@@ -161,6 +161,53 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("which", nargs="?", default="all", choices=(*bench.BENCHMARKS, "all"), help="default: all")
     p.add_argument("--json", type=Path, metavar="DIR", help="write <benchmark>.json reports here")
     p.set_defaults(func=bench.run)
+
+    p = sub.add_parser(
+        "compare",
+        help="run several controllers on one scenario, or the Gans 2003 suite; tables and figures",
+        description="run several controllers on one scenario (side-by-side figures and a table: status, "
+        "time to converge, final pose error, camera path, peak joint speed, update time), or every task "
+        "of the Gans, Hutchinson & Corke 2003 suite with every twist controller",
+    )
+    which = p.add_mutually_exclusive_group(required=True)
+    which.add_argument(
+        "--scenario",
+        choices=compare.scenario_names(),
+        metavar="NAME",
+        help=f"one of {names}, or a task of the suite: "
+        + ", ".join(compare.scenario_names()[len(_scenarios.NAMES) :]),
+    )
+    which.add_argument("--suite", choices=("gans2003",), help="run every task of the suite: gans2003")
+    p.add_argument(
+        "--controllers",
+        type=compare.controller_list,
+        metavar="A,B,...",
+        help=f"comma-separated, from {', '.join(controllers.names())} (default: every one that can run: "
+        "all on an arm scenario, the camera-twist ones on a suite task)",
+    )
+    p.add_argument(
+        "--plant",
+        choices=PLANTS,
+        help="dynamic (default for an arm scenario), kinematic or free-camera (default, and the only "
+        "choice, for the suite)",
+    )
+    p.add_argument(
+        "--duration",
+        type=_positive,
+        metavar="S",
+        help="simulated time per run [s] (default 10 on an arm scenario, 30 for the suite)",
+    )
+    p.add_argument(
+        "--camera-rate",
+        type=_positive,
+        metavar="HZ",
+        help="camera and control rate [Hz] (default 100 on an arm scenario, 25 for the suite)",
+    )
+    p.add_argument(
+        "--out", type=Path, metavar="DIR", help="output folder (default: results/compare/<scenario or suite>)"
+    )
+    p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.set_defaults(func=compare.run)
     return parser
 
 

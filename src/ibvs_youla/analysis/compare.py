@@ -1,0 +1,594 @@
+"""Several controllers on one scenario: the runs, a table of their metrics and side-by-side figures.
+
+:func:`compare` runs each controller (a registered name or a controller object) on the same
+scenario, plant, camera and settings, and returns a :class:`Comparison`: one
+:class:`MethodRow` per controller and the results of those that ran. A controller whose
+command cannot drive the plant (``IncompatibleCommandError``, e.g. the paper's joint-position
+controllers on the free camera) gets the status ``"incompatible"``; one that refuses the task
+when it is reset (``InvalidParameterError``, e.g. MPC-IBVS with target features outside its
+image box) the status ``"rejected"``; both keep the reason and no metrics. A run that diverges
+(``SimulationDivergedError``) is measured on its partial record, with the status
+``"diverged"``.
+
+Metrics of a run (:func:`method_row`), on the recorded samples (every ``record_every``-th tick):
+
+* **time to converge**: the first sample time from which the camera pose stays within
+  :data:`CONVERGED_MM` = 1 mm and :data:`CONVERGED_DEG` = 0.1 deg of the target until the
+  end of the run; ``inf`` when the last sample is outside, or the run stopped early;
+* **outcome**: ``"converged"`` (a finite time to converge); the status of a run that stopped
+  early (``"markers_lost"``, ``"estimate_failed"``, ``"diverged"``); else ``"stalled"`` when
+  the image error norm changed by less than 0.1 % over the last 20 % of the run (the verdict
+  of :func:`~ibvs_youla.analysis.convergence.classify`), or ``"not converged"``;
+* **final pose error**: ``|p - p*|`` [mm] and the angle of ``R^T R*`` [deg] at the last sample;
+* **camera path**: the length of the polyline through the camera centres,
+  ``sum_k |p_{k+1} - p_k|`` [m]; the straight line ``|p* - p_0|`` from the start to the
+  *target*; their ratio (``None`` when the straight line is shorter than 1 um: a pure
+  rotation, whose ideal path has length 0); the largest distance from the start [m]; the
+  rotation travelled, ``sum_k angle(R_k^T R_{k+1})`` [deg], against the angle of
+  ``R_0^T R*``;
+* **feature excursion**: the largest image coordinate over the run as a fraction of the
+  sensor's half extent, ``max |u| / (w/2)``, ``|v| / (h/2)`` over every lens and marker (for
+  ``PinholeCamera.normalized()``, whose nominal sensor is 2 x 2, this is ``max |x|, |y|``, the
+  tangent of the angle off the optical axis); ``markers_left_view``: some marker was not
+  visible at some sample (behind the camera, outside a bounded sensor or depth range), or the
+  run stopped because one was lost (its last frame is not recorded);
+* **peak joint speed ratio**: ``max_j max_k |dq_j| / dq_max,j`` (arm plants only);
+* **median update time**: the median of ``result.update_time`` [us], the wall-clock time of
+  each control update (noisy on a shared machine: compare ratios within one run).
+
+:func:`plot_comparison` draws the runs side by side (matplotlib ``Figure`` objects, no
+pyplot): the image trajectories of each method, the camera paths in 3-D, the image and pose
+errors over time on log scales and, on an arm, the joint speeds against their limits.
+:func:`save_comparison` writes ``table.md``, ``table.json`` and ``figures/*.png``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..exceptions import (
+    IncompatibleCommandError,
+    InvalidParameterError,
+    SimulationDivergedError,
+)
+from .convergence import classify
+from .metrics import pose_error_series_mm_deg
+
+if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.figure import Figure
+
+    from ..controllers import Controller
+    from ..model.arm import Arm
+    from ..model.camera import PinholeCamera, StereoCamera
+    from ..scenarios import Scenario
+    from ..simulation.results import SimulationResult
+    from ..simulation.settings import SimulationSettings
+
+__all__ = [
+    "COMPARISON_FIGURES",
+    "CONVERGED_DEG",
+    "CONVERGED_MM",
+    "Comparison",
+    "MethodRow",
+    "compare",
+    "method_row",
+    "path_length_m",
+    "plot_comparison",
+    "save_comparison",
+    "time_to_converge",
+]
+
+CONVERGED_MM = 1.0  # [mm] pose tolerance of "converged"
+CONVERGED_DEG = 0.1  # [deg]
+STRAIGHT_LINE_FLOOR_M = 1e-6  # below it the start-target line counts as a point (pure rotation)
+COMPARISON_FIGURES = ("image_plane", "camera_path", "error_norm", "joint_speeds")
+
+
+@dataclass(frozen=True)
+class MethodRow:
+    """The metrics of one controller's run (module docstring); ``None`` where they do not apply.
+
+    Attributes:
+        controller: The controller's name.
+        status: ``result.status`` (``"complete"``, ``"markers_lost"``, ...), or
+            ``"incompatible"`` / ``"rejected"`` when it did not run.
+        outcome: ``"converged"``, ``"stalled"``, ``"not converged"``, the status of a run that
+            stopped early, or the status of a controller that did not run.
+        reason: Why it did not run or stopped early (``metadata["error"]``), else ``""``.
+        duration_s: Simulated time covered [s].
+        time_to_converge_s: From when the pose stays within 1 mm and 0.1 deg [s]; ``inf``: never.
+        final_position_mm: Final camera position error [mm].
+        final_rotation_deg: Final camera rotation error [deg].
+        path_length_m: Length of the camera centre's path [m].
+        straight_line_m: Distance from the start to the target [m].
+        path_ratio: ``path_length_m / straight_line_m``; ``None`` for a pure rotation.
+        max_distance_from_start_m: Largest distance of the camera centre from its start [m].
+        rotation_travelled_deg: Sum of the rotation angles between samples [deg].
+        rotation_needed_deg: Angle of the start-to-target rotation [deg].
+        feature_excursion: Largest image coordinate / half sensor extent over the run.
+        markers_left_view: Some marker was invisible at some sample, or the run stopped with
+            ``"markers_lost"``.
+        peak_joint_speed_ratio: ``max |dq| / dq_max`` over joints and time; ``None`` without joints.
+        median_update_us: Median control update time [us].
+    """
+
+    controller: str
+    status: str
+    outcome: str
+    reason: str = ""
+    duration_s: float | None = None
+    time_to_converge_s: float | None = None
+    final_position_mm: float | None = None
+    final_rotation_deg: float | None = None
+    path_length_m: float | None = None
+    straight_line_m: float | None = None
+    path_ratio: float | None = None
+    max_distance_from_start_m: float | None = None
+    rotation_travelled_deg: float | None = None
+    rotation_needed_deg: float | None = None
+    feature_excursion: float | None = None
+    markers_left_view: bool | None = None
+    peak_joint_speed_ratio: float | None = None
+    median_update_us: float | None = None
+
+    @property
+    def ran(self) -> bool:
+        """True when the row has metrics: the controller ran and recorded samples."""
+        return self.duration_s is not None
+
+    @property
+    def converged(self) -> bool:
+        """True when the run converged (a finite time to converge)."""
+        return self.outcome == "converged"
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly form; an infinite time to converge (never) becomes ``None``."""
+        return {
+            k: None if isinstance(v, float) and not math.isfinite(v) else v for k, v in asdict(self).items()
+        }
+
+
+def time_to_converge(result: SimulationResult) -> float:
+    """First sample time after which the pose stays within 1 mm and 0.1 deg of the target [s].
+
+    ``inf`` when the last sample is outside the tolerance or the run stopped early (a status
+    other than ``"complete"``).
+    """
+    if result.status != "complete" or len(result) == 0:
+        return math.inf
+    mm, deg = pose_error_series_mm_deg(result.camera_pose, result.camera_pose_target)
+    outside = np.flatnonzero((mm >= CONVERGED_MM) | (deg >= CONVERGED_DEG))
+    if outside.size == 0:
+        return float(result.t[0])
+    if outside[-1] == len(result) - 1:
+        return math.inf
+    return float(result.t[outside[-1] + 1])
+
+
+def path_length_m(camera_pose: np.ndarray) -> float:
+    """Length of the polyline through the camera centres ``camera_pose[:, :3, 3]`` [m]."""
+    p = np.asarray(camera_pose)[:, :3, 3]
+    return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
+
+
+def _rotation_travelled_deg(camera_pose: np.ndarray) -> float:
+    if len(camera_pose) < 2:
+        return 0.0
+    R = camera_pose[:, :3, :3]
+    R_step = np.einsum("nji,njk->nik", R[:-1], R[1:])  # R_k^T R_{k+1}
+    cos = np.clip(0.5 * (np.trace(R_step, axis1=1, axis2=2) - 1.0), -1.0, 1.0)
+    skew = R_step - np.transpose(R_step, (0, 2, 1))
+    sin = 0.5 * np.linalg.norm(np.stack([skew[:, 2, 1], skew[:, 0, 2], skew[:, 1, 0]], axis=1), axis=1)
+    return float(np.degrees(np.arctan2(sin, cos)).sum())
+
+
+def _feature_excursion(result: SimulationResult, camera: StereoCamera | PinholeCamera) -> float:
+    """Largest |image coordinate| / half sensor extent: u columns over w/2, v (last per point) over h/2."""
+    n, m = result.n_points, result.features.shape[1]
+    per_point = m // n
+    f = np.abs(result.features.reshape(len(result), n, per_point))
+    u = np.nanmax(f[:, :, :-1]) / (0.5 * camera.sensor_width)
+    v = np.nanmax(f[:, :, -1]) / (0.5 * camera.sensor_height)
+    return float(max(u, v))
+
+
+def method_row(
+    name: str,
+    result: SimulationResult,
+    camera: StereoCamera | PinholeCamera,
+    arm: Arm | None = None,
+) -> MethodRow:
+    """The metrics of one run (module docstring).
+
+    Args:
+        name: The controller's name for the row.
+        result: Its run (at least one sample).
+        camera: The true camera of the run (its sensor extent scales the feature excursion).
+        arm: The arm whose ``dq_max`` scales the joint speeds; needed when the result has ``dq``.
+    """
+    pose = result.camera_pose
+    mm, deg = result.final_pose_error()
+    straight = float(np.linalg.norm(result.camera_pose_target[:3, 3] - pose[0, :3, 3]))
+    path = path_length_m(pose)
+    _, needed = pose_error_series_mm_deg(pose[:1], result.camera_pose_target)
+    t_conv = time_to_converge(result)
+    if math.isfinite(t_conv):
+        outcome = "converged"
+    elif result.status != "complete":
+        outcome = result.status
+    else:
+        outcome = "stalled" if classify(result).kind == "stalled" else "not converged"
+    speed = None
+    if "dq" in result.signals and arm is not None:
+        speed = float(np.nanmax(np.abs(result.dq) / np.asarray(arm.dq_max, dtype=float)))
+    return MethodRow(
+        controller=name,
+        status=result.status,
+        outcome=outcome,
+        reason=str(result.metadata.get("error", "")) if result.status != "complete" else "",
+        duration_s=result.duration,
+        time_to_converge_s=t_conv,
+        final_position_mm=mm,
+        final_rotation_deg=deg,
+        path_length_m=path,
+        straight_line_m=straight,
+        path_ratio=path / straight if straight >= STRAIGHT_LINE_FLOOR_M else None,
+        max_distance_from_start_m=float(np.linalg.norm(pose[:, :3, 3] - pose[0, :3, 3], axis=1).max()),
+        rotation_travelled_deg=_rotation_travelled_deg(pose),
+        rotation_needed_deg=float(needed[0]),
+        feature_excursion=_feature_excursion(result, camera),
+        markers_left_view=bool(not result.visible.all() or result.status == "markers_lost"),
+        peak_joint_speed_ratio=speed,
+        median_update_us=float(1e6 * np.median(result.update_time)) if result.update_time.size else None,
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class Comparison:
+    """Several controllers on one scenario: a row per controller, the results of those that ran.
+
+    Attributes:
+        scenario: The scenario.
+        plant: The plant name.
+        camera: The true camera.
+        duration: Simulated time asked for [s].
+        rows: One :class:`MethodRow` per controller, in the order given.
+        results: Controller name -> its result, for the controllers that ran.
+        arm: The arm of an arm plant (``None`` on the free camera).
+    """
+
+    scenario: Scenario
+    plant: str
+    camera: StereoCamera | PinholeCamera
+    duration: float
+    rows: tuple[MethodRow, ...]
+    results: Mapping[str, SimulationResult] = field(default_factory=dict)
+    arm: Arm | None = None
+
+    def row(self, controller: str) -> MethodRow:
+        """The row of one controller.
+
+        Raises:
+            InvalidParameterError: no row has that name.
+        """
+        for r in self.rows:
+            if r.controller == controller:
+                return r
+        raise InvalidParameterError(
+            "controller", controller, " or ".join(repr(r.controller) for r in self.rows)
+        )
+
+    def table_markdown(self) -> str:
+        """The table as Markdown: one row per controller (numbers to 3 significant digits)."""
+        head = (
+            "| method | status | outcome | converged at [s] | final error [mm, deg] | path [m] "
+            "| path / straight line | max excursion | peak joint speed / limit | median update [us] |"
+        )
+        lines = [head, "|" + "---|" * head.count(" | ") + "---|"]
+        for r in self.rows:
+            if not r.ran:
+                lines.append(f"| {r.controller} | {r.status} | {_one_line(r.reason)} |" + " |" * 7)
+                continue
+            ratio = "-" if r.path_ratio is None else f"{r.path_ratio:.3g}"
+            speed = "-" if r.peak_joint_speed_ratio is None else f"{r.peak_joint_speed_ratio:.3g}"
+            update = "-" if r.median_update_us is None else f"{r.median_update_us:.3g}"
+            lines.append(
+                f"| {r.controller} | {r.status} | {r.outcome} | {_seconds(r.time_to_converge_s)} "
+                f"| {r.final_position_mm:.3g}, {r.final_rotation_deg:.3g} | {r.path_length_m:.3g} "
+                f"| {ratio} | {r.feature_excursion:.3g}{' (left view)' if r.markers_left_view else ''} "
+                f"| {speed} | {update} |"
+            )
+        return "\n".join(lines) + "\n"
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly form: the run's setting and the rows."""
+        return {
+            "scenario": self.scenario.name,
+            "plant": self.plant,
+            "camera": repr(self.camera),
+            "duration_s": self.duration,
+            "converged_within": {"position_mm": CONVERGED_MM, "rotation_deg": CONVERGED_DEG},
+            "rows": [r.to_dict() for r in self.rows],
+        }
+
+
+def _seconds(t: float | None) -> str:
+    return "never" if t is None or not math.isfinite(t) else f"{t:.3g}"
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split()).replace("|", "/")
+
+
+def compare(
+    scenario: Scenario,
+    controllers: Sequence[str | Controller],
+    *,
+    plant: str = "dynamic",
+    camera: StereoCamera | PinholeCamera | None = None,
+    duration: float = 10.0,
+    settings: SimulationSettings | None = None,
+    arm: Arm | None = None,
+) -> Comparison:
+    """Run every controller on the same scenario, plant, camera and settings.
+
+    Args:
+        scenario: The scenario (an arm scenario or ``Scenario.free_camera``).
+        controllers: Registered names (``iy.controllers.names()``) or controller objects; a
+            name appears once.
+        plant: ``"dynamic"``, ``"kinematic"`` or ``"free-camera"``.
+        camera: The true camera; default ``simulate``'s (the ZED 2 stereo preset).
+        duration: Simulated time [s].
+        settings: Rates and options; default ``SimulationSettings()``.
+        arm: The true arm of an arm plant; default ``Arm.irb4600()``.
+
+    Returns:
+        The :class:`Comparison`. Controllers that could not run have a row with their reason.
+
+    Raises:
+        InvalidParameterError: an unknown controller name, a name given twice, an empty list,
+            a bad plant or duration, or a free-camera scenario on an arm plant.
+    """
+    from .. import controllers as registry
+    from .._validation import one_of, positive
+    from ..model.arm import Arm
+    from ..model.camera import PinholeCamera, StereoCamera, default_camera
+    from ..simulation.settings import SimulationSettings
+    from ..simulation.simulate import PLANTS, simulate
+
+    duration = positive(duration, "duration", unit="s")
+    if camera is not None and not isinstance(camera, (StereoCamera, PinholeCamera)):
+        raise InvalidParameterError(
+            "camera", type(camera).__name__, "a StereoCamera, a PinholeCamera or None"
+        )
+    if settings is not None and not isinstance(settings, SimulationSettings):
+        raise InvalidParameterError("settings", type(settings).__name__, "a SimulationSettings or None")
+    one_of(plant, "plant", PLANTS)
+    if plant != "free-camera" and not scenario.has_joints:
+        raise InvalidParameterError(
+            "plant", plant, f"'free-camera' for the free-camera scenario {scenario.name!r} (it has no joints)"
+        )
+    labelled = [
+        (c, c) if isinstance(c, str) else (getattr(c, "name", type(c).__name__), c) for c in controllers
+    ]
+    names = [label for label, _ in labelled]
+    for _, c in labelled:
+        if isinstance(c, str) and c not in registry.names():
+            raise InvalidParameterError("controller", c, "one of " + ", ".join(registry.names()))
+    if not names or len(set(names)) != len(names):
+        raise InvalidParameterError("controllers", names, "one or more controllers, each named once")
+    camera = default_camera() if camera is None else camera
+    arm = None if plant == "free-camera" else (Arm.irb4600() if arm is None else arm)
+    rows, results = [], {}
+    for label, c in labelled:
+        try:
+            result = simulate(
+                scenario, c, duration=duration, plant=plant, camera=camera, settings=settings, arm=arm
+            )
+        except IncompatibleCommandError as err:
+            rows.append(MethodRow(label, "incompatible", "incompatible", _one_line(str(err))))
+            continue
+        except InvalidParameterError as err:  # the controller refused the task at reset
+            rows.append(MethodRow(label, "rejected", "rejected", _one_line(str(err))))
+            continue
+        except SimulationDivergedError as err:  # measured on the samples recorded until then
+            reason = _one_line(str(err))
+            if err.partial is None or len(err.partial) == 0:
+                rows.append(MethodRow(label, "diverged", "diverged", reason))
+                continue
+            results[label] = err.partial
+            row = method_row(label, err.partial, camera, arm)
+            rows.append(replace(row, status="diverged", outcome="diverged", reason=reason))
+            continue
+        results[label] = result
+        rows.append(method_row(label, result, camera, arm))
+    return Comparison(scenario, plant, camera, duration, tuple(rows), results, arm)
+
+
+# ----------------------------------------------------------------------------- figures
+def _new_figure(size: tuple[float, float], title: str) -> Figure:
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=size, layout="constrained")
+    fig.suptitle(title)
+    return fig
+
+
+def _line_style(k: int) -> dict[str, Any]:
+    """Method k's colour and dash (a dash cycle shows methods whose curves coincide)."""
+    return {"color": f"C{k}", "ls": ("-", "--", "-.", ":")[k % 4]}
+
+
+def _title(comparison: Comparison, what: str) -> str:
+    return f"{comparison.scenario.name or 'scenario'} on the {comparison.plant} plant: {what}"
+
+
+def plot_image_trajectories(comparison: Comparison, max_columns: int = 4) -> Figure:
+    """Each method's marker trajectories in the image, one panel per method and lens.
+
+    Panels run row-major, at most ``max_columns`` per row: one per method for a monocular
+    camera, two (left ``(u_l, v)``, then right ``(u_r, v)``) for a stereo one; unused panels
+    are hidden. In each panel ``ax.lines[i]`` (i < n markers) is marker i + 1's trajectory,
+    then the starts (circles) and the targets (crosses); a bounded sensor is outlined.
+    Coordinates are in mm on the sensor, or unitless for a normalized camera (focal length 1,
+    unbounded view).
+    """
+    from matplotlib.patches import Rectangle
+
+    results = comparison.results
+    camera = comparison.camera
+    normalized = camera.unbounded_view and camera.focal_length == 1.0
+    scale, unit = (1.0, "normalized") if normalized else (1e3, "mm")
+    first = next(iter(results.values()), None)
+    n = comparison.scenario.n_points
+    per = 2 if first is None else first.features.shape[1] // n
+    lenses = ("left", "right") if per == 3 else ("",)
+    panels = [(name, result, k, lens) for name, result in results.items() for k, lens in enumerate(lenses)]
+    cols = max(1, min(max_columns, len(panels)))
+    rows = max(1, -(-len(panels) // cols))
+    fig = _new_figure((3.6 * cols + 0.6, 3.3 * rows + 0.6), _title(comparison, "image trajectories"))
+    axes = fig.subplots(rows, cols, squeeze=False)
+    w, h = 1e3 * camera.sensor_width, 1e3 * camera.sensor_height
+    for ax, (name, result, k, lens) in zip(axes.flat, panels, strict=False):
+        p, target = scale * result.features, scale * result.feature_target
+        u = [per * i + k for i in range(n)]
+        v = [per * i + per - 1 for i in range(n)]
+        for i in range(n):
+            ax.plot(p[:, u[i]], p[:, v[i]], lw=1.2, color=f"C{i}", label=f"marker {i + 1}")
+        for i in range(n):
+            ax.plot(p[0, u[i]], p[0, v[i]], "o", color=f"C{i}", ms=5, mfc="none")
+        for i in range(n):
+            ax.plot(target[u[i]], target[v[i]], "x", color=f"C{i}", ms=8, mew=2)
+        if not camera.unbounded_view:
+            ax.add_patch(Rectangle((-w / 2, -h / 2), w, h, fill=False, lw=1.0, color="0.3"))
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.invert_yaxis()
+        ax.set_title(f"{name}{f' ({lens} lens)' if lens else ''}", fontsize="medium")
+        ax.set_xlabel(f"{'x' if normalized else 'u'}{f'_{lens[0]}' if lens else ''} [{unit}]")
+        ax.set_ylabel(f"{'y' if normalized else 'v'} [{unit}]")
+        ax.grid(alpha=0.3)
+    for ax in axes.flat[len(panels) :]:
+        ax.set_visible(False)
+    if panels:
+        axes[0, 0].legend(loc="best", fontsize="x-small")
+    return fig
+
+
+def plot_camera_paths(comparison: Comparison) -> Figure:
+    """The camera centre's path of each method in 3-D (base frame, m), markers and target.
+
+    ``ax.lines[k]`` is method k's path; then its start (circle); the markers are scattered in
+    black and the target camera position is a black cross.
+    """
+    fig = _new_figure((7.5, 6.5), _title(comparison, "camera paths"))
+    ax = fig.add_subplot(projection="3d")
+    items = list(comparison.results.items())
+    for k, (name, result) in enumerate(items):
+        p = result.camera_pose[:, :3, 3]
+        ax.plot(p[:, 0], p[:, 1], p[:, 2], lw=1.4, **_line_style(k), label=name)
+    for k, (_, result) in enumerate(items):
+        p0 = result.camera_pose[0, :3, 3]
+        ax.plot([p0[0]], [p0[1]], [p0[2]], "o", color=f"C{k}", mfc="none")
+    markers = np.asarray(comparison.scenario.markers_O)
+    ax.scatter(markers[:, 0], markers[:, 1], markers[:, 2], color="k", s=12, label="markers")
+    if items:
+        target = items[0][1].camera_pose_target[:3, 3]
+        ax.scatter([target[0]], [target[1]], [target[2]], color="k", marker="x", s=60, label="target")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.legend(loc="upper left", fontsize="small")
+    return fig
+
+
+def plot_error_norms(comparison: Comparison) -> Figure:
+    """Image error norm ``||e||`` (top) and camera position [mm] and rotation [deg] errors over time.
+
+    All on log scales; ``axes[r].lines[k]`` is method k's curve in row r (0: ``||e||``, 1:
+    position, 2: rotation); the tolerances of "converged" (1 mm, 0.1 deg) are dashed.
+    """
+    fig = _new_figure((8.5, 8.0), _title(comparison, "errors"))
+    axes = fig.subplots(3, 1, sharex=True)
+    tiny = 1e-300  # log scale: an exact zero drawn at the bottom
+    for k, (name, result) in enumerate(comparison.results.items()):
+        mm, deg = pose_error_series_mm_deg(result.camera_pose, result.camera_pose_target)
+        e = np.linalg.norm(result.feature_error, axis=1)
+        for ax, y in zip(axes, (e, mm, deg), strict=True):
+            ax.plot(result.t, np.maximum(y, tiny), lw=1.3, **_line_style(k), label=name)
+    axes[1].axhline(CONVERGED_MM, ls="--", lw=1.0, color="k")
+    axes[2].axhline(CONVERGED_DEG, ls="--", lw=1.0, color="k")
+    normalized = comparison.camera.unbounded_view and comparison.camera.focal_length == 1.0
+    labels = (
+        "||e|| [normalized]" if normalized else "||e|| [m on the sensor]",
+        "position [mm]",
+        "rotation [deg]",
+    )
+    for ax, label in zip(axes, labels, strict=True):
+        ax.set_yscale("log")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3, which="both")
+    axes[-1].set_xlabel("t [s]")
+    if comparison.results:
+        axes[0].legend(loc="best", fontsize="small")
+    return fig
+
+
+def plot_joint_speeds(comparison: Comparison) -> Figure | None:
+    """``|dq_j| / dq_max,j`` over time, one panel per joint, every method; the limit 1 dashed.
+
+    ``None`` when no run has joint speeds (the free camera). ``axes.flat[j].lines[k]`` is
+    method k's joint j + 1 (methods without ``dq`` skipped), then the limit.
+    """
+    runs = [(k, name, r) for k, (name, r) in enumerate(comparison.results.items()) if "dq" in r.signals]
+    if not runs or comparison.arm is None:
+        return None
+    limit = np.asarray(comparison.arm.dq_max, dtype=float)
+    n = limit.shape[0]
+    fig = _new_figure((10.0, 1.6 * ((n + 1) // 2) + 1.2), _title(comparison, "joint speeds / limits"))
+    axes = fig.subplots((n + 1) // 2, 2, sharex=True, squeeze=False)
+    for j, ax in enumerate(axes.flat[:n]):
+        for k, name, result in runs:
+            ax.plot(result.t, np.abs(result.dq[:, j]) / limit[j], lw=1.1, **_line_style(k), label=name)
+        ax.axhline(1.0, ls="--", lw=1.0, color="C3")
+        ax.set_yscale("log")
+        ax.set_ylabel(f"|dq{j + 1}| / limit")
+        ax.grid(alpha=0.3, which="both")
+    for ax in axes[-1]:
+        ax.set_xlabel("t [s]")
+    axes[0, 0].legend(loc="best", fontsize="x-small")
+    return fig
+
+
+def plot_comparison(comparison: Comparison) -> dict[str, Figure]:
+    """Every comparison figure by name (:data:`COMPARISON_FIGURES`; ``joint_speeds`` only on an arm)."""
+    figures = {
+        "image_plane": plot_image_trajectories(comparison),
+        "camera_path": plot_camera_paths(comparison),
+        "error_norm": plot_error_norms(comparison),
+        "joint_speeds": plot_joint_speeds(comparison),
+    }
+    return {name: fig for name, fig in figures.items() if fig is not None}
+
+
+def save_comparison(
+    comparison: Comparison, out_dir: str | Path, *, plots: bool = True, dpi: int = 110
+) -> dict[str, Path]:
+    """Write ``table.md``, ``table.json`` and (with ``plots``) ``figures/<name>.png``; return the paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {"table.md": out / "table.md", "table.json": out / "table.json"}
+    paths["table.md"].write_text(comparison.table_markdown())
+    paths["table.json"].write_text(json.dumps(comparison.to_dict(), indent=1))
+    if plots:
+        (out / "figures").mkdir(exist_ok=True)
+        for name, fig in plot_comparison(comparison).items():
+            paths[name] = out / "figures" / f"{name}.png"
+            fig.savefig(paths[name], dpi=dpi)
+    return paths

@@ -18,7 +18,8 @@ from scipy.spatial.transform import Rotation
 
 import ibvs_youla as iy
 from ibvs_youla.analysis import suites
-from ibvs_youla.analysis.compare import COMPARISON_FIGURES, compare, plot_comparison, time_to_converge
+from ibvs_youla.analysis.compare import compare, time_to_converge
+from ibvs_youla.analysis.comparison_figures import COMPARISON_FIGURES, plot_comparison
 from ibvs_youla.exceptions import InvalidParameterError, SimulationDivergedError
 from test_cli import one_error_line, run
 

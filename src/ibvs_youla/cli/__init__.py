@@ -1,8 +1,9 @@
-"""The ``ibvs-youla`` command line: reproduce, simulate, design, view, bench.
+"""The ``ibvs-youla`` command line: reproduce, simulate, compare, design, view, bench.
 
 ``ibvs-youla reproduce --out results`` reruns the paper's Section 7 and prints the
 table; ``simulate`` runs one scenario and writes the result, its figures and a
-summary; ``design`` prints (and with ``--plot`` draws) the inner, feedforward and
+summary; ``compare`` runs several methods on one scenario (or the Gans 2003 task suite)
+side by side; ``design`` prints (and with ``--plot`` draws) the inner, feedforward and
 outer designs; ``view`` plays a run in Meshcat; ``bench`` runs the benchmarks.
 ``ibvs-youla <command> --help`` lists the options of each.
 
@@ -11,8 +12,8 @@ Errors print one line ``ibvs-youla: error: ...`` on stderr: bad arguments exit w
 TOML key, a scenario outside the joint limits, a diverged run) exit with 1.
 
 The arguments are defined in :mod:`.parser`; each subcommand lives in the module
-named after it (:mod:`.reproduce`, :mod:`.simulate`, :mod:`.design`, :mod:`.view`,
-:mod:`.bench`), and :mod:`.base` holds what they share.
+named after it (:mod:`.reproduce`, :mod:`.simulate`, :mod:`.compare`, :mod:`.design`,
+:mod:`.view`, :mod:`.bench`), and :mod:`.base` holds what they share.
 """
 
 from __future__ import annotations

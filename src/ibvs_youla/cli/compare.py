@@ -50,7 +50,8 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
 def _run_scenario(args: argparse.Namespace) -> int:
     from .. import controllers, scenarios
     from ..analysis import suites
-    from ..analysis.compare import compare, save_comparison
+    from ..analysis.compare import compare
+    from ..analysis.comparison_figures import save_comparison
     from ..model.camera import default_camera
     from ..simulation.settings import SimulationSettings
 
@@ -80,7 +81,7 @@ def _run_scenario(args: argparse.Namespace) -> int:
 
 def _run_suite(args: argparse.Namespace) -> int:
     from ..analysis import suites
-    from ..analysis.compare import save_comparison
+    from ..analysis.comparison_figures import save_comparison
 
     if args.plant not in (None, "free-camera"):
         raise UsageError(f"compare: --suite runs on the free camera; received --plant {args.plant}")

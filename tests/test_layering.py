@@ -27,6 +27,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("scenarios",),
     ("simulation",),
     ("analysis",),
+    ("campaign",),  # campaigns: cases, specs, runs and their rows (use simulation and analysis)
     ("viz", "config", "cli"),
 )
 

@@ -1,0 +1,229 @@
+"""Seeded scenario generators for campaigns: arm families and free-flying-camera families.
+
+Every case draws from its own stream, ``np.random.SeedSequence(seed).spawn(n)[case]``, so the
+same seed gives the same cases on any machine, in any order and on any number of workers, and
+case k does not depend on how many cases were asked for. Each generator rejects draws that
+break its rules and draws again from the same stream (the number of draws is deterministic).
+
+Families (:data:`FAMILIES`):
+
+* ``"arm-physical"`` — the IRB 4600: a target configuration within the joint limits shrunk by
+  :data:`LIMIT_MARGIN` of each range (joints 4 and 6 within +-180 deg), |q5| >= 10 deg from the
+  wrist singularity (ERRATA 7) and the camera Jacobian's smallest singular value >=
+  :data:`MIN_JACOBIAN_SIGMA` at both ends; a start configuration up to ``difficulty`` x
+  :data:`MAX_JOINT_STEP_DEG` per joint away; three markers placed along random rays of the
+  target camera (normalized coordinates within +-0.35, depths 1.5-3.5 m), kept only if all three
+  are in view (in front, inside the sensor, within the depth range) at the start and the target.
+* ``"arm-virtual"`` — the same configurations, markers anywhere in a box in front of the arm
+  (x 1-4 m, y -2-2 m, z -0.5-2 m), projected whatever their depth sign, as the paper's virtual
+  points (ERRATA 13).
+* ``"free-planar"`` / ``"free-nonplanar"`` — a camera without an arm in front of a 0.2 m square
+  (four points) or of the square plus two points 0.1 m off its plane; the target camera 0.75 m
+  in front, facing it (ViSP's tutorial geometry); the start a rotation about a random axis by
+  up to ``difficulty`` x :data:`MAX_ROTATION_DEG` and a translation up to ``difficulty`` x
+  :data:`MAX_TRANSLATION_M` away, kept only if every point stays 0.1 m or more in front and
+  within |x|, |y| <= 1 (45 deg off the axis) at the start.
+
+The difficulty of a case is reported with it: the rotation angle [deg] and the distance [m]
+between the start and target camera poses.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .._validation import one_of, positive
+from ..exceptions import InvalidParameterError
+
+__all__ = [
+    "FAMILIES",
+    "LIMIT_MARGIN",
+    "MAX_JOINT_STEP_DEG",
+    "MAX_ROTATION_DEG",
+    "MAX_TRANSLATION_M",
+    "MIN_JACOBIAN_SIGMA",
+    "Case",
+    "generate_cases",
+]
+
+FAMILIES = ("arm-physical", "arm-virtual", "free-planar", "free-nonplanar")
+ARM_FAMILIES = ("arm-physical", "arm-virtual")
+LIMIT_MARGIN = 0.1  # of each joint's range, kept clear at both ends
+WRIST_MARGIN_DEG = 10.0  # |q5| >= this [deg]
+MIN_JACOBIAN_SIGMA = 0.05  # smallest singular value of the 6x6 LOCAL camera Jacobian (m/rad and 1)
+MAX_JOINT_STEP_DEG = 30.0  # per joint at difficulty 1 [deg]
+MAX_ROTATION_DEG = 90.0  # free camera, at difficulty 1 [deg]
+MAX_TRANSLATION_M = 0.3  # free camera, at difficulty 1 [m]
+MAX_DRAWS = 200  # rejection sampling gives up after this many draws of one case
+SQUARE_O = np.array([[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]])  # [m]
+OFF_PLANE_O = np.array([[0.0, 0.05, 0.1], [0.05, -0.05, -0.1]])  # [m], the non-planar extras
+
+
+@dataclass(frozen=True)
+class Case:
+    """One generated case: the scenario as plain data and its difficulty.
+
+    Attributes:
+        family: The family it was drawn from.
+        index: Its index in the campaign.
+        scenario: ``Scenario`` fields as plain data (``ExperimentSpec.scenario``).
+        difficulty: ``{"rotation_deg", "translation_m"}`` between the start and target cameras.
+        draws: How many draws the rejection sampling took.
+    """
+
+    family: str
+    index: int
+    scenario: dict[str, Any] = field(hash=False)
+    difficulty: dict[str, float] = field(hash=False)
+    draws: int = 1
+
+
+def _rotation_deg(R: np.ndarray) -> float:
+    return math.degrees(math.acos(max(-1.0, min(1.0, 0.5 * (float(np.trace(R)) - 1.0)))))
+
+
+def _difficulty(T_start: np.ndarray, T_target: np.ndarray) -> dict[str, float]:
+    return {
+        "rotation_deg": _rotation_deg(T_start[:3, :3].T @ T_target[:3, :3]),
+        "translation_m": float(np.linalg.norm(T_start[:3, 3] - T_target[:3, 3])),
+    }
+
+
+def _rotvec_matrix(rotvec: np.ndarray) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_rotvec(rotvec).as_matrix()
+
+
+def generate_cases(family: str, n: int, seed: int, *, difficulty: float = 1.0) -> tuple[Case, ...]:
+    """``n`` cases of ``family`` from ``seed`` (module docstring).
+
+    Raises:
+        InvalidParameterError: an unknown family, ``n`` < 1, a seed that is not an integer >= 0,
+            a difficulty <= 0, or a case the rules reject :data:`MAX_DRAWS` times.
+    """
+    one_of(family, "family", FAMILIES)
+    for name, value, low in (("n", n, 1), ("seed", seed, 0)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+            raise InvalidParameterError(name, value, f"an integer >= {low}")
+    difficulty = positive(difficulty, "difficulty")
+    streams = np.random.SeedSequence(int(seed)).spawn(int(n))
+    if family in ARM_FAMILIES:
+        from ..model.arm import Arm
+        from ..model.camera import default_camera
+
+        arm, camera = Arm.irb4600(), default_camera()
+        return tuple(
+            _arm_case(family, k, np.random.default_rng(s), difficulty, arm, camera)
+            for k, s in enumerate(streams)
+        )
+    return tuple(_free_case(family, k, np.random.default_rng(s), difficulty) for k, s in enumerate(streams))
+
+
+# ----------------------------------------------------------------------------- arm families
+def _joint_box(arm: Any) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = np.asarray(arm.q_min, dtype=float), np.asarray(arm.q_max, dtype=float)
+    lo, hi = lo.copy(), hi.copy()
+    for j in (3, 5):  # joints 4 and 6 turn +-400 deg: keep one turn
+        lo[j], hi[j] = max(lo[j], -math.pi), min(hi[j], math.pi)
+    margin = LIMIT_MARGIN * (hi - lo)
+    return lo + margin, hi - margin
+
+
+def _well_conditioned(arm: Any, q: np.ndarray) -> bool:
+    if abs(q[4]) < math.radians(WRIST_MARGIN_DEG):
+        return False
+    return float(np.linalg.svd(arm.camera_jacobian(q), compute_uv=False)[-1]) >= MIN_JACOBIAN_SIGMA
+
+
+def _arm_case(
+    family: str, index: int, rng: np.random.Generator, difficulty: float, arm: Any, camera: Any
+) -> Case:
+    from ..estimation.stereo_pose import check_marker_geometry
+    from ..exceptions import DegenerateMarkersError
+    from ..scenarios import place_markers
+    from ..simulation.sensor import MarkerSensor
+
+    lo, hi = _joint_box(arm)
+    step = math.radians(MAX_JOINT_STEP_DEG) * difficulty
+    for draw in range(1, MAX_DRAWS + 1):
+        q_target = lo + (hi - lo) * rng.random(6)
+        q_start = np.clip(q_target + step * rng.uniform(-1.0, 1.0, 6), lo, hi)
+        if not (_well_conditioned(arm, q_target) and _well_conditioned(arm, q_start)):
+            continue
+        T_target, T_start = arm.camera_pose(q_target), arm.camera_pose(q_start)
+        if family == "arm-physical":
+            rays = rng.uniform(-0.35, 0.35, (3, 2))
+            markers = place_markers(T_target, rays, rng.uniform(1.5, 3.5, 3))
+        else:
+            markers = np.column_stack(
+                (rng.uniform(1.0, 4.0, 3), rng.uniform(-2.0, 2.0, 3), rng.uniform(-0.5, 2.0, 3))
+            )
+        try:
+            check_marker_geometry(markers, "markers_O")
+        except DegenerateMarkersError:
+            continue
+        virtual = family == "arm-virtual"
+        if not virtual:
+            sensor = MarkerSensor(camera, markers)
+            views = [camera.visibility(sensor.points_in_camera(T)).all_visible for T in (T_start, T_target)]
+            if not all(views):
+                continue
+        else:  # projected whatever the sign, but never at ~zero depth or disparity
+            P = [(markers - T[:3, 3]) @ T[:3, :3] for T in (T_start, T_target)]
+            if min(np.abs(p[:, 2]).min() for p in P) < 0.2:
+                continue
+        scenario = {
+            "q_start": q_start,
+            "q_target": q_target,
+            "markers_O": np.round(markers, 6),
+            "name": f"{family}-{index}",
+            "virtual_points": virtual,
+        }
+        return Case(family, index, scenario, _difficulty(T_start, T_target), draw)
+    raise InvalidParameterError(
+        "difficulty",
+        difficulty,
+        f"a difficulty at which {family} case {index} can be drawn in {MAX_DRAWS} tries",
+    )
+
+
+# ----------------------------------------------------------------------------- free camera
+def _free_case(family: str, index: int, rng: np.random.Generator, difficulty: float) -> Case:
+    points = SQUARE_O if family == "free-planar" else np.vstack([SQUARE_O, OFF_PLANE_O])
+    cMo_target = np.eye(4)
+    cMo_target[:3, 3] = (0.0, 0.0, 0.75)  # the target camera 0.75 m in front of the points, facing them
+    T_target = np.linalg.inv(cMo_target)
+    for draw in range(1, MAX_DRAWS + 1):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        angle = math.radians(MAX_ROTATION_DEG) * difficulty * rng.random()
+        direction = rng.normal(size=3)
+        direction /= np.linalg.norm(direction)
+        offset = (
+            MAX_TRANSLATION_M * difficulty * rng.random() ** (1.0 / 3.0) * direction
+        )  # uniform in the ball
+        delta = np.eye(4)  # T_C*_C0: the start camera in the target camera's frame
+        delta[:3, :3] = _rotvec_matrix(angle * axis)
+        delta[:3, 3] = offset
+        T_start = T_target @ delta
+        P_C = (points - T_start[:3, 3]) @ T_start[:3, :3]
+        if P_C[:, 2].min() < 0.1 or np.abs(P_C[:, :2] / P_C[:, 2:]).max() > 1.0:
+            continue
+        scenario = {
+            "T_O_C_start": T_start,
+            "T_O_C_target": T_target,
+            "markers_O": points,
+            "name": f"{family}-{index}",
+            "virtual_points": False,
+        }
+        return Case(family, index, scenario, _difficulty(T_start, T_target), draw)
+    raise InvalidParameterError(
+        "difficulty",
+        difficulty,
+        f"a difficulty at which {family} case {index} can be drawn in {MAX_DRAWS} tries",
+    )

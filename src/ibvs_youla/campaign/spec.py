@@ -1,0 +1,183 @@
+"""One run of a campaign as data: scenario, plant, camera, controller, settings, duration, seed.
+
+An :class:`ExperimentSpec` is frozen, picklable (it crosses to Dask workers) and serializable
+to JSON; :attr:`ExperimentSpec.key` is the first 20 hex digits of the SHA-256 of its canonical
+JSON (sorted keys, no spaces, floats written by ``repr``), so the same spec has the same key
+on any machine and a campaign can skip the runs it already stored. :meth:`ExperimentSpec.build`
+turns it back into the arguments of :func:`ibvs_youla.simulate`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..exceptions import InvalidParameterError
+
+__all__ = ["CAMERA_KINDS", "ExperimentSpec", "camera_from_spec", "specs_for"]
+
+CAMERA_KINDS = ("stereo", "mono", "normalized")
+
+
+def _plain(value: Any) -> Any:
+    """JSON-ready plain data: arrays to lists, numpy scalars to Python numbers, tuples to lists."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def camera_from_spec(camera: Mapping[str, Any]) -> Any:
+    """The camera of a spec: ``{"kind": "stereo" | "mono" | "normalized", ...}`` (zed2 keywords).
+
+    Stereo and mono default to the paper's ZED 2 optics in the VGA mode (the simulator's default).
+    """
+    from ..model.camera import PinholeCamera, StereoCamera
+
+    kind = camera.get("kind")
+    if kind == "normalized":
+        return PinholeCamera.normalized()
+    options = {k: v for k, v in camera.items() if k != "kind"}
+    if kind == "stereo":
+        return StereoCamera.zed2(**{"mode": "VGA", **options})
+    if kind == "mono":
+        return PinholeCamera.zed2(**{"mode": "VGA", **options})
+    raise InvalidParameterError("camera.kind", kind, " or ".join(repr(k) for k in CAMERA_KINDS))
+
+
+@dataclass(frozen=True, eq=True)
+class ExperimentSpec:
+    """One (case, method) run of a campaign, as plain data (module docstring).
+
+    Attributes:
+        family: Case family, e.g. ``"arm-physical"`` (:data:`~.cases.FAMILIES`).
+        case: Index of the case in its campaign (0, 1, ...).
+        seed: The campaign's seed (the case's own stream is ``SeedSequence(seed).spawn(...)[case]``).
+        scenario: The scenario as plain data (``Scenario.to_dict()``: joints or camera poses,
+            markers, joint offset, virtual points, name).
+        controller: A registered controller name (``iy.controllers.names()``).
+        controller_params: Keyword parameters of ``iy.controllers.make`` (JSON values).
+        plant: ``"dynamic"``, ``"kinematic"`` or ``"free-camera"``.
+        camera: ``{"kind": "stereo" | "mono" | "normalized", ...}`` (:func:`camera_from_spec`).
+        settings: Keyword arguments of ``SimulationSettings`` (JSON values).
+        duration: Simulated time [s].
+        difficulty: What makes the case hard, reported with its row, e.g. ``{"rotation_deg":
+            ..., "translation_m": ...}`` between the start and target camera poses.
+    """
+
+    family: str
+    case: int
+    seed: int
+    scenario: Mapping[str, Any]
+    controller: str
+    plant: str
+    camera: Mapping[str, Any]
+    duration: float
+    controller_params: Mapping[str, Any] = field(default_factory=dict)
+    settings: Mapping[str, Any] = field(default_factory=dict)
+    difficulty: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for name in ("case", "seed"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+                raise InvalidParameterError(name, value, "an integer >= 0")
+            object.__setattr__(self, name, int(value))
+        for name in ("scenario", "controller_params", "camera", "settings", "difficulty"):
+            object.__setattr__(self, name, _plain(getattr(self, name)))
+        object.__setattr__(self, "duration", float(self.duration))
+
+    def __hash__(self) -> int:
+        return hash(self.key)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data (the JSON of :meth:`to_json`)."""
+        return _plain(asdict(self))
+
+    def to_json(self) -> str:
+        """Canonical JSON: sorted keys, no spaces (the input of :attr:`key`)."""
+        return json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+    @classmethod
+    def from_json(cls, text: str) -> ExperimentSpec:
+        """The spec of :meth:`to_json`."""
+        return cls(**json.loads(text))
+
+    @property
+    def key(self) -> str:
+        """A stable identifier: the first 20 hex digits of SHA-256 of the canonical JSON."""
+        return hashlib.sha256(self.to_json().encode()).hexdigest()[:20]
+
+    def build(self) -> dict[str, Any]:
+        """Keyword arguments of :func:`ibvs_youla.simulate`: scenario, controller, plant, camera, ...
+
+        (and settings, duration), rebuilt from the plain data.
+        """
+        from ..controllers import make
+        from ..scenarios import Scenario
+        from ..simulation.settings import SimulationSettings
+
+        data = dict(self.scenario)
+        keys = ("q_start", "q_target", "markers_O", "joint_offset", "T_O_C_start", "T_O_C_target")
+        arrays = {k: np.asarray(data[k], dtype=float) for k in keys if data.get(k) is not None}
+        scenario = Scenario(
+            **arrays,
+            name=str(data.get("name", f"{self.family}-{self.case}")),
+            virtual_points=bool(data.get("virtual_points", False)),
+            description=str(data.get("description", "")),
+        )
+        settings = dict(self.settings)
+        if "sv_policy" in settings:
+            from ..control.singular_values import SingularValuePolicy
+
+            settings["sv_policy"] = SingularValuePolicy(**settings["sv_policy"])
+        return {
+            "scenario": scenario,
+            "controller": make(self.controller, **self.controller_params),
+            "plant": self.plant,
+            "camera": camera_from_spec(self.camera),
+            "settings": SimulationSettings(**settings),
+            "duration": self.duration,
+        }
+
+
+def specs_for(
+    cases: Any,
+    controllers: Any,
+    *,
+    seed: int,
+    plant: str,
+    camera: Mapping[str, Any],
+    duration: float,
+    settings: Mapping[str, Any] | None = None,
+    controller_params: Mapping[str, Mapping[str, Any]] | None = None,
+) -> list[ExperimentSpec]:
+    """One spec per (case, controller), cases outer: every method runs on the same cases."""
+    params = controller_params or {}
+    return [
+        ExperimentSpec(
+            family=case.family,
+            case=case.index,
+            seed=seed,
+            scenario=case.scenario,
+            controller=name,
+            plant=plant,
+            camera=camera,
+            duration=duration,
+            controller_params=params.get(name, {}),
+            settings=settings or {},
+            difficulty=case.difficulty,
+        )
+        for case in cases
+        for name in controllers
+    ]

@@ -1,0 +1,105 @@
+"""Campaign cases, specs and rows: seeded and stable, every failure a row, outcomes as stated."""
+
+from __future__ import annotations
+
+import math
+import pickle
+
+import numpy as np
+import pytest
+
+from ibvs_youla.campaign.cases import FAMILIES, MAX_JOINT_STEP_DEG, generate_cases
+from ibvs_youla.campaign.metrics import COLUMNS, OUTCOMES
+from ibvs_youla.campaign.run import run_spec
+from ibvs_youla.campaign.spec import ExperimentSpec, specs_for
+from ibvs_youla.exceptions import InvalidParameterError
+
+FREE_25HZ = {"joint_rate_hz": 25.0, "camera_rate_hz": 25.0}
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_cases_depend_on_the_seed_and_index_only(family):
+    ten, three = generate_cases(family, 10, 42), generate_cases(family, 3, 42)
+    for a, b in zip(ten[:3], three, strict=True):
+        assert a.index == b.index and a.difficulty == b.difficulty
+        for k in a.scenario:
+            np.testing.assert_array_equal(np.asarray(a.scenario[k]), np.asarray(b.scenario[k]))
+    other = generate_cases(family, 3, 43)
+    assert other[0].difficulty != ten[0].difficulty
+
+
+def test_arm_cases_keep_their_rules():
+    from ibvs_youla.model.arm import Arm
+    from ibvs_youla.model.camera import default_camera
+    from ibvs_youla.simulation.sensor import MarkerSensor
+
+    arm, camera = Arm.irb4600(), default_camera()
+    for case in generate_cases("arm-physical", 8, 5):
+        q0, q1 = np.asarray(case.scenario["q_start"]), np.asarray(case.scenario["q_target"])
+        assert np.all(np.abs(q0 - q1) <= math.radians(MAX_JOINT_STEP_DEG) + 1e-12)
+        assert min(abs(q0[4]), abs(q1[4])) >= math.radians(10.0)  # away from the wrist singularity
+        sensor = MarkerSensor(camera, case.scenario["markers_O"])
+        for q in (q0, q1):  # every marker in view at both ends
+            assert camera.visibility(sensor.points_in_camera(arm.camera_pose(q))).all_visible
+        assert case.difficulty["rotation_deg"] > 0.0 and case.difficulty["translation_m"] > 0.0
+
+
+def test_free_cases_scale_with_the_difficulty():
+    easy, hard = generate_cases("free-planar", 30, 9, difficulty=0.2), generate_cases("free-planar", 30, 9)
+    assert max(c.difficulty["rotation_deg"] for c in easy) <= 18.0 + 1e-9  # 0.2 x 90 deg
+    assert max(c.difficulty["rotation_deg"] for c in hard) > 18.0
+
+
+def test_a_spec_is_data_with_a_stable_key():
+    case = generate_cases("free-planar", 1, 1)[0]
+    (spec,) = specs_for(
+        [case],
+        ["pbvs"],
+        seed=1,
+        plant="free-camera",
+        camera={"kind": "normalized"},
+        duration=5.0,
+        settings=FREE_25HZ,
+    )
+    assert ExperimentSpec.from_json(spec.to_json()) == spec and pickle.loads(pickle.dumps(spec)) == spec
+    assert spec.key == ExperimentSpec.from_json(spec.to_json()).key and len(spec.key) == 20
+    other = ExperimentSpec(**{**spec.to_dict(), "duration": 6.0})
+    assert other.key != spec.key
+    with pytest.raises(InvalidParameterError, match="seed"):
+        ExperimentSpec(**{**spec.to_dict(), "seed": "1"})
+
+
+def test_rows_have_the_schema_and_the_outcomes():
+    cases = generate_cases("free-planar", 2, 1)
+    specs = specs_for(
+        cases,
+        ["ibvs-current", "pbvs"],
+        seed=1,
+        plant="free-camera",
+        camera={"kind": "normalized"},
+        duration=20.0,
+        settings=FREE_25HZ,
+    )
+    rows = [run_spec(s) for s in specs]
+    for row in rows:
+        assert set(row) == set(COLUMNS) and row["outcome"] in OUTCOMES
+        assert all(isinstance(row[c], kind) for c, kind in COLUMNS.items())
+        assert row["outcome"] == "reached" and row["time_to_reach_s"] < 20.0
+    assert [r["controller"] for r in rows] == ["ibvs-current", "pbvs", "ibvs-current", "pbvs"]
+    assert rows[1]["path_ratio"] == pytest.approx(1.0, abs=1e-3)  # PBVS: a straight line
+
+
+def test_a_run_that_raises_is_a_row():
+    case = generate_cases("arm-physical", 1, 2)[0]
+    (spec,) = specs_for(
+        [case],
+        ["pbvs"],
+        seed=2,
+        plant="free-camera",
+        camera={"kind": "stereo"},
+        duration=1.0,
+        controller_params={"pbvs": {"gain": -1.0}},
+    )
+    row = run_spec(spec.to_json())
+    assert row["outcome"] == "error" and "gain" in row["error"] and math.isnan(row["final_position_mm"])
+    assert set(row) == set(COLUMNS)

@@ -18,7 +18,7 @@ from ..exceptions import SimulationDivergedError
 from .metrics import error_row, row_from_result
 from .spec import ExperimentSpec
 
-__all__ = ["run_spec"]
+__all__ = ["run_spec", "run_spec_with_result"]
 
 _LOCAL = threading.local()
 
@@ -34,6 +34,15 @@ def _arm() -> Any:
 
 def run_spec(spec: ExperimentSpec | str) -> dict[str, Any]:
     """The row of one run (module docstring); ``spec`` may be its JSON."""
+    return run_spec_with_result(spec)[0]
+
+
+def run_spec_with_result(spec: ExperimentSpec | str) -> tuple[dict[str, Any], Any]:
+    """The row of one run and its :class:`~ibvs_youla.simulation.results.SimulationResult`.
+
+    The result is the partial record of a diverged run, and None when the run raised before
+    recording anything. A campaign asks for it only to store full time series (``--series``).
+    """
     from ..simulation.simulate import simulate
 
     if isinstance(spec, str):
@@ -45,8 +54,8 @@ def run_spec(spec: ExperimentSpec | str) -> dict[str, Any]:
         result = simulate(**kwargs, arm=arm)
     except SimulationDivergedError as err:
         if err.partial is None:
-            return error_row(spec, err, time.perf_counter() - t0)
-        return row_from_result(spec, err.partial, arm, time.perf_counter() - t0)
+            return error_row(spec, err, time.perf_counter() - t0), None
+        return row_from_result(spec, err.partial, arm, time.perf_counter() - t0), err.partial
     except Exception as err:  # every failure becomes a row: the campaign goes on
-        return error_row(spec, err, time.perf_counter() - t0)
-    return row_from_result(spec, result, arm, time.perf_counter() - t0)
+        return error_row(spec, err, time.perf_counter() - t0), None
+    return row_from_result(spec, result, arm, time.perf_counter() - t0), result

@@ -1,15 +1,15 @@
-"""The argument definitions of ``ibvs-youla`` and its six subcommands."""
+"""The argument definitions of ``ibvs-youla`` and its subcommands."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from .. import __version__, controllers
 from .. import scenarios as _scenarios
 from ..simulation.simulate import PLANTS
-from . import bench, compare, design, reproduce, simulate, view
+from . import bench, campaign, campaign_report, compare, design, reproduce, simulate, view
 from .base import PROG, UsageError
 
 
@@ -43,8 +43,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog=PROG,
         description="Stereo IBVS with feedforward and adaptive Youla control (Li & Assadian): "
-        "reproduce the paper, simulate a scenario, inspect the controller designs, view a run, "
-        "benchmark. Errors print one line and exit with 2 (bad arguments) or 1.",
+        "reproduce the paper, simulate a scenario, compare methods, run seeded campaigns, inspect the "
+        "controller designs, view a run, benchmark. Errors print one line and exit with 2 (bad arguments) "
+        "or 1.",
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
@@ -208,7 +209,95 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--no-plots", action="store_true", help="skip the figures")
     p.set_defaults(func=compare.run)
+
+    _add_campaign(sub)
+    p = sub.add_parser(
+        "campaign-report",
+        help="tables and figures of a campaign folder",
+        description="tables and figures of a campaign folder",
+    )
+    campaign_report.configure(p)
+    p.set_defaults(func=campaign_report.run)
     return parser
+
+
+def _add_campaign(sub: Any) -> None:
+    from ..campaign.cases import FAMILIES
+    from ..campaign.spec import CAMERA_KINDS
+
+    p = sub.add_parser(
+        "campaign",
+        help="run every method on the same seeded cases, on this machine's cores or a Dask cluster",
+        description="run every method on the same seeded cases, on this machine's cores (one process per "
+        "core) or an existing Dask cluster; rows go to OUT/rows (Parquet) as they finish, and the same "
+        "command resumes an interrupted campaign",
+    )
+    p.add_argument("--cases", type=campaign.count(1), required=True, metavar="N", help="number of cases")
+    p.add_argument(
+        "--controllers",
+        type=compare.controller_list,
+        metavar="A,B,...",
+        help=f"comma-separated, from {', '.join(controllers.names())} (default: every one the plant takes; "
+        "fb and ff+fb command joints and need an arm plant)",
+    )
+    p.add_argument(
+        "--family",
+        choices=FAMILIES,
+        default="arm-physical",
+        help="case family (default arm-physical); the arm families run on an arm plant, the free ones on "
+        "the free camera",
+    )
+    p.add_argument(
+        "--plant",
+        choices=PLANTS,
+        help="default: dynamic for an arm family (or kinematic: an ideal inner loop); free-camera, the only "
+        "choice, for a free family",
+    )
+    p.add_argument(
+        "--camera",
+        choices=CAMERA_KINDS,
+        help="default: stereo (ZED 2) for an arm family, normalized (F = 1) for a free one",
+    )
+    p.add_argument(
+        "--duration",
+        type=_positive,
+        metavar="S",
+        help="simulated time per run [s] (default 20 for an arm family, 30 for a free one; "
+        "camera at 100 Hz on an arm, 25 Hz on the free camera)",
+    )
+    p.add_argument("--seed", type=campaign.seed, default=0, metavar="S", help="integer >= 0 (default 0)")
+    p.add_argument(
+        "--difficulty",
+        type=_positive,
+        default=1.0,
+        metavar="X",
+        help="scales the start-target rotation and translation (default 1)",
+    )
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="campaign folder")
+    p.add_argument(
+        "--scheduler",
+        type=campaign.scheduler_address,
+        metavar="ADDRESS",
+        help="an existing Dask scheduler, e.g. tcp://127.0.0.1:8786 (default: a local cluster)",
+    )
+    p.add_argument(
+        "--workers",
+        type=campaign.count(0),
+        metavar="K",
+        help="processes of the local cluster (default: one per core; 0 runs in this process without Dask)",
+    )
+    p.add_argument(
+        "--series", action="store_true", help="also store every run's time series in OUT/series/<key>.npz"
+    )
+    p.add_argument(
+        "--batch-rows",
+        type=campaign.count(1),
+        default=20,
+        metavar="N",
+        help="rows per Parquet file; finished rows wait at most 10 s (default 20)",
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=campaign.run)
 
 
 def _add_run_options(p: argparse.ArgumentParser, names: str) -> None:

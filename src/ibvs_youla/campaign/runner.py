@@ -1,0 +1,529 @@
+"""Run a campaign: every method on the same seeded cases, on local processes or a Dask cluster.
+
+:class:`CampaignDefinition` is the campaign as data (what ``DIR/campaign.json`` stores), with
+defaults per family: the arm families run on the dynamic arm with the ZED 2 stereo camera,
+``SimulationSettings()`` (camera at 100 Hz) and 20 s; the free-flying families on the free
+camera with the normalized camera (F = 1, no field-of-view limit), 25 Hz and 30 s (ViSP's
+tutorial-ibvs-4pts settings). A free family has no joint configurations, so it runs on the
+free camera only; an arm family's cases are drawn by their joint limits and singularities,
+so they run on an arm plant only (``kinematic`` for an ideal inner loop); the paper's
+controllers (``fb``, ``ff+fb``) command joint positions, so they need an arm plant.
+
+:func:`run_campaign` builds the specs (:func:`~.cases.generate_cases` then
+:func:`~.spec.specs_for`), skips the keys already stored in ``out_dir``
+(:func:`~.storage.stored_keys`), and runs the rest:
+
+* by default on a ``distributed.LocalCluster`` of processes with one thread each (a Pinocchio
+  ``Data`` must not be shared between threads), one per core;
+* with ``scheduler="tcp://host:port"`` on an existing Dask cluster (``Client(address)``), with
+  no other change (its workers need this package installed);
+* with ``workers=0`` in this process, without Dask (debugging, tiny campaigns).
+
+Specs travel as JSON; the workers return rows (:func:`~.run.run_spec`) and never write. Tasks
+are submitted with ``pure=False, retries=2`` in a window of a few per worker thread. A worker
+that dies loses its current tasks, which the scheduler reruns elsewhere; a run that took
+down ``distributed.scheduler.allowed-failures`` (3) workers is stored as an ``"error"`` row
+(``KilledWorker``). A task that raised (``run_spec`` does not, so the cause is the worker's
+environment, e.g. this package missing) is not stored: the campaign goes on, and the summary
+counts it so that a rerun retries it. Rows are flushed by :class:`~.storage.RowWriter` every
+``batch_rows`` rows or ``batch_seconds`` seconds, and on Ctrl-C; rerunning the same campaign
+resumes it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import signal
+import sys
+import threading
+import time
+from collections import Counter
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .._validation import one_of, positive
+from ..exceptions import IbvsYoulaError, InvalidParameterError
+from .cases import ARM_FAMILIES, FAMILIES
+from .spec import CAMERA_KINDS, ExperimentSpec, specs_for
+
+__all__ = [
+    "FAMILY_DEFAULTS",
+    "CampaignDefinition",
+    "CampaignSummary",
+    "SchedulerError",
+    "default_workers",
+    "run_campaign",
+]
+
+_ARM_DEFAULTS: dict[str, Any] = {
+    "plant": "dynamic",
+    "camera": {"kind": "stereo"},
+    "duration": 20.0,
+    "settings": {},
+}
+_FREE_DEFAULTS: dict[str, Any] = {
+    "plant": "free-camera",
+    "camera": {"kind": "normalized"},
+    "duration": 30.0,
+    "settings": {"joint_rate_hz": 25.0, "camera_rate_hz": 25.0},
+}
+FAMILY_DEFAULTS: dict[str, dict[str, Any]] = {
+    family: _ARM_DEFAULTS if family in ARM_FAMILIES else _FREE_DEFAULTS for family in FAMILIES
+}
+CONNECT_TIMEOUT_S = 10.0  # to reach an existing scheduler [s]
+TASKS_PER_THREAD = 4  # tasks in flight per worker thread (at least MIN_WINDOW in all)
+MIN_WINDOW = 32
+
+
+class SchedulerError(IbvsYoulaError):
+    """The Dask scheduler cannot be reached, or the cluster lost runs.
+
+    Attributes:
+        address: The scheduler's address ("local" for the local cluster).
+    """
+
+    def __init__(self, address: str, message: str) -> None:
+        self.address = address
+        super().__init__(f"scheduler {address}: {message}")
+
+
+def default_workers() -> int:
+    """Cores this process may use (its CPU affinity where the system tells it)."""
+    affinity = getattr(os, "sched_getaffinity", None)
+    return len(affinity(0)) if affinity is not None else max(1, os.cpu_count() or 1)
+
+
+@dataclass(frozen=True)
+class CampaignDefinition:
+    """A campaign as data: ``cases`` cases of ``family`` from ``seed``, each run by every controller.
+
+    Fields left None take the family's defaults (module docstring, :data:`FAMILY_DEFAULTS`).
+
+    Attributes:
+        family: A case family (:data:`~.cases.FAMILIES`).
+        cases: Number of cases (>= 1).
+        controllers: Registered controller names, each once.
+        seed: The campaign's seed (an integer >= 0).
+        plant: ``"dynamic"``, ``"kinematic"`` or ``"free-camera"``.
+        camera: ``{"kind": "stereo" | "mono" | "normalized", ...}``, or just the kind.
+        duration: Simulated time per run [s].
+        settings: Keyword arguments of ``SimulationSettings``.
+        difficulty: The generator's difficulty knob (> 0; 1 is the stated range).
+        controller_params: Controller name -> keyword parameters of ``controllers.make``.
+
+    Raises:
+        InvalidParameterError: any of the above out of range, an unknown controller or
+            parameter, a family on a plant it cannot run on (module docstring), settings that
+            ``SimulationSettings`` rejects.
+    """
+
+    family: str
+    cases: int
+    controllers: tuple[str, ...]
+    seed: int = 0
+    plant: str | None = None
+    camera: Mapping[str, Any] | str | None = None
+    duration: float | None = None
+    settings: Mapping[str, Any] | None = None
+    difficulty: float = 1.0
+    controller_params: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        from .. import controllers as registry
+        from ..simulation.free_camera import FreeCameraPlant
+        from ..simulation.settings import SimulationSettings
+        from ..simulation.simulate import PLANTS
+
+        def put(name: str, value: Any) -> None:
+            object.__setattr__(self, name, value)
+
+        one_of(self.family, "family", FAMILIES)
+        defaults = FAMILY_DEFAULTS[self.family]
+        for name, low in (("cases", 1), ("seed", 0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise InvalidParameterError(name, value, f"an integer >= {low}")
+        names = (self.controllers,) if isinstance(self.controllers, str) else tuple(self.controllers)
+        unknown = [n for n in names if n not in registry.names()]
+        if not names or unknown or len(set(names)) != len(names):
+            raise InvalidParameterError(
+                "controllers", list(names), "registered names, each once: " + ", ".join(registry.names())
+            )
+        put("controllers", names)
+        put("plant", one_of(self.plant or defaults["plant"], "plant", PLANTS))
+        camera = self.camera if self.camera is not None else defaults["camera"]
+        camera = {"kind": camera} if isinstance(camera, str) else dict(camera)
+        one_of(camera.get("kind"), "camera.kind", CAMERA_KINDS)
+        put("camera", camera)
+        duration = defaults["duration"] if self.duration is None else self.duration
+        put("duration", positive(duration, "duration", unit="s"))
+        settings = dict(defaults["settings"] if self.settings is None else self.settings)
+        SimulationSettings(**settings)  # raises on a bad key or value
+        put("settings", settings)
+        put("difficulty", positive(self.difficulty, "difficulty"))
+        params = {str(k): dict(v) for k, v in self.controller_params.items()}
+        stray = sorted(set(params) - set(names))
+        if stray:
+            raise InvalidParameterError("controller_params", stray, f"names among {', '.join(names)}")
+        put("controller_params", params)
+        arm_family = self.family in ARM_FAMILIES
+        if arm_family == (self.plant == "free-camera"):
+            valid = (
+                "'dynamic' or 'kinematic' for the arm" if arm_family else "'free-camera' for the free-flying"
+            )
+            raise InvalidParameterError("plant", self.plant, f"{valid} family {self.family!r}")
+        for name in names:
+            kind = registry.make(name, **params.get(name, {})).command_type  # raises on unknown parameters
+            if self.plant == "free-camera" and kind not in FreeCameraPlant.accepts:
+                raise InvalidParameterError(
+                    "controllers",
+                    name,
+                    f"controllers that command a camera twist on the free camera ({name!r} commands "
+                    f"{kind.value}: it needs an arm family and plant)",
+                )
+
+    @property
+    def runs(self) -> int:
+        """Cases x controllers."""
+        return self.cases * len(self.controllers)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data (``DIR/campaign.json`` without its ``format``)."""
+        return {
+            "family": self.family,
+            "cases": self.cases,
+            "controllers": list(self.controllers),
+            "seed": self.seed,
+            "plant": self.plant,
+            "camera": dict(self.camera),  # type: ignore[arg-type]
+            "duration": self.duration,
+            "settings": dict(self.settings or {}),
+            "difficulty": self.difficulty,
+            "controller_params": {k: dict(v) for k, v in self.controller_params.items()},
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> CampaignDefinition:
+        """The definition of :meth:`to_dict` (a ``format`` key is ignored)."""
+        fields_ = {k: v for k, v in data.items() if k != "format"}
+        fields_["controllers"] = tuple(fields_.get("controllers", ()))
+        return cls(**fields_)
+
+    def specs(self) -> list[ExperimentSpec]:
+        """One spec per (case, controller), cases outer."""
+        from .cases import generate_cases
+
+        cases = generate_cases(self.family, self.cases, self.seed, difficulty=self.difficulty)
+        return specs_for(
+            cases,
+            self.controllers,
+            seed=self.seed,
+            plant=self.plant,  # type: ignore[arg-type]
+            camera=self.camera,  # type: ignore[arg-type]
+            duration=self.duration,  # type: ignore[arg-type]
+            settings=self.settings,
+            controller_params=self.controller_params,
+        )
+
+
+@dataclass
+class CampaignSummary:
+    """What one call of :func:`run_campaign` did.
+
+    Attributes:
+        out_dir: The campaign folder.
+        runs: Runs of the campaign (cases x controllers).
+        stored_before: Rows already stored when the call started (skipped).
+        ran: Rows stored by this call.
+        errors: Rows of this call with the outcome ``"error"``.
+        not_stored: Tasks that raised on their worker and were not stored (rerun to retry).
+        first_failure: The message of the first of those, or "".
+        outcomes: Outcome -> count over the rows of this call.
+        wall_s: Wall time of the call, cluster start included [s].
+        run_s: Wall time from the first submission to the last row [s].
+        workers: Worker threads ("0" in this process).
+        other_rows: Stored rows whose key is no run of this definition (rows written by a
+            version of the package whose specs serialize differently; they are kept, not rerun).
+    """
+
+    out_dir: Path
+    runs: int
+    stored_before: int
+    ran: int = 0
+    errors: int = 0
+    not_stored: int = 0
+    first_failure: str = ""
+    outcomes: Counter[str] = field(default_factory=Counter)
+    wall_s: float = 0.0
+    run_s: float = 0.0
+    workers: int = 0
+    other_rows: int = 0
+
+    @property
+    def runs_per_minute(self) -> float:
+        """Rows stored per minute of :attr:`run_s` (NaN when nothing ran)."""
+        return 60.0 * self.ran / self.run_s if self.ran and self.run_s > 0.0 else math.nan
+
+
+def run_campaign(
+    definition: CampaignDefinition,
+    out_dir: str | os.PathLike[str],
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: bool = True,
+    series: bool = False,
+    batch_rows: int = 20,
+    batch_seconds: float = 10.0,
+) -> CampaignSummary:
+    """Run the runs of ``definition`` not yet stored in ``out_dir`` (module docstring).
+
+    Args:
+        definition: The campaign.
+        out_dir: Its folder (:mod:`.storage`); created if absent.
+        scheduler: Address of an existing Dask scheduler, e.g. ``"tcp://127.0.0.1:8786"``.
+        workers: Worker processes of the local cluster (default: one per core); 0 runs in this
+            process without Dask. Not with ``scheduler``.
+        progress: Show a progress bar (runs done, errors, time left) on stderr.
+        series: Also store the full time series of each run made by this call in
+            ``out_dir/series/<key>.npz`` (the workers return the result with the row; the
+            client writes it). Runs already stored are not rerun for their series.
+        batch_rows: Rows per Parquet part.
+        batch_seconds: Longest time a finished row waits before it is written [s].
+
+    Returns:
+        The summary; every stored row reads with ``pandas.read_parquet(out_dir + "/rows")``.
+
+    Raises:
+        CampaignStorageError: ``out_dir`` holds another campaign or other files, or another
+            client runs it (nothing written).
+        SchedulerError: the scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S`
+            (nothing written), or the cluster lost runs (what was returned is stored).
+    """
+    from . import storage
+
+    t_start = time.perf_counter()
+    if scheduler is not None and workers is not None:
+        raise InvalidParameterError("workers", workers, "None with a scheduler (its workers run the tasks)")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
+        raise InvalidParameterError("workers", workers, "an integer >= 0")
+    path = Path(out_dir)
+    record = definition.to_dict()
+    storage.check_folder(path, record)  # reads only: refuse before connecting or writing
+    specs = definition.specs()
+    done = storage.stored_keys(path) if path.is_dir() else set()
+    summary = CampaignSummary(path, len(specs), sum(s.key in done for s in specs))
+    if summary.stored_before == len(specs):
+        summary.wall_s = time.perf_counter() - t_start
+        return summary
+    client, cluster = (None, None) if workers == 0 else _connect(scheduler, workers)
+    summary.workers = 0 if client is None else sum(_nthreads(client).values())
+    try:
+        storage.create_folder(path, record)
+        with storage.client_lock(path):
+            done = storage.stored_keys(path)  # again, under the lock
+            pending = [s for s in specs if s.key not in done]
+            summary.stored_before = len(specs) - len(pending)
+            summary.other_rows = len(done - {s.key for s in specs})
+            writer = storage.RowWriter(path, batch_rows, batch_seconds)
+            bar = _progress_bar(len(specs), summary.stored_before, progress)
+            t_run = time.perf_counter()
+            try:
+                if client is None:
+                    _run_here(pending, writer, summary, bar, path, series)
+                else:
+                    _run_dask(client, pending, writer, summary, bar, path, series)
+            finally:
+                writer.flush()
+                summary.ran = writer.written
+                summary.run_s = time.perf_counter() - t_run
+                bar.close()
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    summary.wall_s = time.perf_counter() - t_start
+    return summary
+
+
+def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any]:
+    """A client of the existing scheduler, or of a new local cluster (and that cluster)."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    if scheduler is None:
+        with _workers_ignore_ctrl_c():
+            cluster = LocalCluster(
+                n_workers=workers or default_workers(),
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+            )
+        return Client(cluster), cluster
+    try:
+        return Client(scheduler, timeout=CONNECT_TIMEOUT_S), None
+    except (OSError, TimeoutError, ValueError) as err:
+        raise SchedulerError(scheduler, f"cannot connect ({' '.join(str(err).split())})") from None
+
+
+@contextlib.contextmanager
+def _workers_ignore_ctrl_c() -> Iterator[None]:
+    """Ignore SIGINT while the local workers start: they inherit it, and Ctrl-C reaches the client only.
+
+    Ctrl-C signals the terminal's whole process group; without this every worker prints a
+    traceback. The client flushes its rows and closes the cluster, which stops the workers.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _nthreads(client: Any) -> dict[str, int]:
+    try:
+        return dict(client.nthreads())
+    except Exception:  # the scheduler is gone: nothing to report
+        return {}
+
+
+def _progress_bar(total: int, initial: int, enabled: bool) -> Any:
+    from tqdm.auto import tqdm
+
+    bar = tqdm(
+        total=total,
+        initial=initial,
+        unit="run",
+        desc="campaign",
+        disable=not enabled,
+        file=sys.stderr,
+        dynamic_ncols=True,
+        smoothing=0.05,
+    )
+    bar.set_postfix(errors=0, refresh=False)
+    return bar
+
+
+def _store(
+    row: dict[str, Any], result: Any, writer: Any, summary: CampaignSummary, bar: Any, path: Path
+) -> None:
+    from .storage import save_series
+
+    if result is not None:
+        save_series(path, row["key"], result)
+    writer.add(row)
+    summary.outcomes[row["outcome"]] += 1
+    summary.errors += row["outcome"] == "error"
+    if row["outcome"] == "error":
+        bar.set_postfix(errors=summary.errors, refresh=False)
+    bar.update(1)
+
+
+def _run_here(
+    pending: Sequence[ExperimentSpec],
+    writer: Any,
+    summary: CampaignSummary,
+    bar: Any,
+    path: Path,
+    series: bool,
+) -> None:
+    from .run import run_spec_with_result
+
+    for spec in pending:
+        row, result = run_spec_with_result(spec)
+        _store(row, result if series else None, writer, summary, bar, path)
+
+
+def _run_dask(
+    client: Any,
+    pending: Sequence[ExperimentSpec],
+    writer: Any,
+    summary: CampaignSummary,
+    bar: Any,
+    path: Path,
+    series: bool,
+) -> None:
+    from concurrent.futures import CancelledError
+
+    from distributed.comm import CommClosedError
+
+    try:
+        _collect(client, pending, writer, summary, bar, path, series)
+    except (CancelledError, CommClosedError):  # the scheduler, or the connection to it, is gone
+        raise SchedulerError(
+            str(client.scheduler.address),
+            f"lost the connection, runs cancelled; the {writer.written + len(writer)} rows returned by "
+            "this call are stored: rerun the same command to resume",
+        ) from None
+
+
+def _collect(
+    client: Any,
+    pending: Sequence[ExperimentSpec],
+    writer: Any,
+    summary: CampaignSummary,
+    bar: Any,
+    path: Path,
+    series: bool,
+) -> None:
+    from concurrent.futures import CancelledError
+
+    from distributed import wait
+    from distributed.scheduler import KilledWorker
+
+    from .metrics import error_row
+    from .run import run_spec, run_spec_with_result
+
+    function = run_spec_with_result if series else run_spec
+    queue = list(reversed(pending))  # pop() from the end keeps the campaign's order
+    in_flight: dict[Any, ExperimentSpec] = {}
+    window = _window(client)
+    while queue or in_flight:
+        if queue and len(in_flight) < window:
+            chunk = [queue.pop() for _ in range(min(window - len(in_flight), len(queue)))]
+            futures = client.map(function, [s.to_json() for s in chunk], pure=False, retries=2)
+            in_flight.update(zip(futures, chunk, strict=True))
+        due = writer.seconds_until_due()
+        try:
+            finished, _ = wait(
+                list(in_flight),
+                timeout=None if due is None else max(due, 0.01),
+                return_when="FIRST_COMPLETED",
+            )
+        except TimeoutError:
+            writer.flush()
+            continue
+        for future in finished:
+            spec = in_flight.pop(future)
+            if future.status == "finished":
+                value = future.result()
+                row, result = value if series else (value, None)
+                _store(row, result, writer, summary, bar, path)
+            elif future.status == "error" and isinstance(future.exception(), KilledWorker):
+                _store(error_row(spec, future.exception()), None, writer, summary, bar, path)
+            elif future.status == "error":
+                summary.not_stored += 1
+                if not summary.first_failure:
+                    err = future.exception()
+                    summary.first_failure = " ".join(f"{type(err).__name__}: {err}".split())[:300]
+            else:
+                raise CancelledError(future.key)
+            future.release()
+        if writer.seconds_until_due() == 0.0:
+            writer.flush()
+            window = _window(client)
+
+
+def _window(client: Any) -> int:
+    """Tasks to keep in flight: a few per worker thread of the cluster now."""
+    return max(MIN_WINDOW, TASKS_PER_THREAD * sum(_nthreads(client).values()))

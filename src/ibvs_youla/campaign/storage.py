@@ -1,0 +1,267 @@
+"""A campaign folder: its definition, its rows as a Parquet dataset, optional time series.
+
+Layout of a folder ``DIR`` (only the client that runs the campaign writes it; workers return
+rows and never write):
+
+* ``DIR/campaign.json`` — the campaign's definition (family, seed, cases, controllers, plant,
+  camera, duration, settings, difficulty, controller parameters), written first and atomically.
+  A folder holding another definition, or holding other files and no definition, is refused
+  (:class:`CampaignStorageError`) before anything is written; the same definition resumes.
+* ``DIR/rows/part-<uuid>.parquet`` — the rows, one file per flushed batch, all with the schema
+  :func:`arrow_schema` built from :data:`~.metrics.COLUMNS` (so a column that is empty or all
+  NaN in one batch keeps its type). A batch is written to a hidden temporary file in
+  ``DIR/rows`` (``.part-<uuid>.parquet.tmp``: skipped by pyarrow's, pandas', polars' and
+  DuckDB's ``*.parquet`` discovery), flushed to disk, then renamed with :func:`os.replace`:
+  a crash loses at most the rows of the batch not yet renamed, never leaves a half-written
+  part. ``pandas.read_parquet(DIR + "/rows")`` reads every row.
+* ``DIR/series/<key>.npz`` — optional full time series (``SimulationResult.save``), one per
+  run, written the same way (temporary name, then renamed).
+* ``DIR/.lock`` — held (``fcntl.flock``) by the running client, so that a second client on the
+  same folder is refused instead of storing duplicate rows; the system releases it when the
+  client dies, whatever kills it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import time
+import uuid
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+from ..exceptions import IbvsYoulaError
+from .metrics import COLUMNS
+
+__all__ = [
+    "DEFINITION_FILE",
+    "FORMAT",
+    "CampaignStorageError",
+    "RowWriter",
+    "arrow_schema",
+    "check_folder",
+    "client_lock",
+    "create_folder",
+    "read_definition",
+    "read_rows",
+    "save_series",
+    "stored_keys",
+]
+
+DEFINITION_FILE = "campaign.json"
+ROWS_DIR = "rows"
+SERIES_DIR = "series"
+LOCK_FILE = ".lock"
+FORMAT = 1  # version of the folder layout, stored in campaign.json
+_KNOWN = {DEFINITION_FILE, ROWS_DIR, SERIES_DIR, LOCK_FILE}
+
+
+class CampaignStorageError(IbvsYoulaError):
+    """A folder cannot hold this campaign: another campaign's definition, other files, a busy client.
+
+    Attributes:
+        path: The campaign folder.
+    """
+
+    def __init__(self, path: Path, message: str) -> None:
+        self.path = path
+        super().__init__(f"{path}: {message}")
+
+
+def arrow_schema() -> Any:
+    """The pyarrow schema of the rows: one field per :data:`~.metrics.COLUMNS` entry, in order."""
+    import pyarrow as pa
+
+    types = {str: pa.string(), int: pa.int64(), float: pa.float64()}
+    return pa.schema([(name, types[kind]) for name, kind in COLUMNS.items()])
+
+
+def _canonical(definition: Mapping[str, Any]) -> dict[str, Any]:
+    """The definition as stored: format first, JSON round trip (tuples to lists, keys sorted)."""
+    return json.loads(json.dumps({"format": FORMAT, **definition}, sort_keys=True))
+
+
+def read_definition(out_dir: str | os.PathLike[str]) -> dict[str, Any] | None:
+    """The stored definition of ``out_dir``, or None when it holds none."""
+    path = Path(out_dir) / DEFINITION_FILE
+    if not path.is_file():
+        return None
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:
+        raise CampaignStorageError(Path(out_dir), f"{DEFINITION_FILE} is unreadable ({err})") from None
+
+
+def check_folder(out_dir: str | os.PathLike[str], definition: Mapping[str, Any]) -> bool:
+    """Whether ``out_dir`` already holds this campaign (True: resume) or none yet (False); reads only.
+
+    Raises:
+        CampaignStorageError: ``out_dir`` is a file, holds another campaign's definition (the
+            message names the fields that differ), or holds other files and no definition.
+    """
+    path = Path(out_dir)
+    if path.exists() and not path.is_dir():
+        raise CampaignStorageError(path, "is a file, not a campaign folder")
+    stored = read_definition(path)
+    if stored is None:
+        others = sorted(p.name for p in path.iterdir() if p.name not in _KNOWN) if path.is_dir() else []
+        if others:
+            listed = ", ".join(others[:3]) + (", ..." if len(others) > 3 else "")
+            raise CampaignStorageError(
+                path, f"holds other files ({listed}) and no {DEFINITION_FILE}; give an empty or new --out"
+            )
+        return False
+    wanted = _canonical(definition)
+    if stored == wanted:
+        return True
+    differ = sorted(k for k in set(stored) | set(wanted) if stored.get(k) != wanted.get(k))
+    detail = "; ".join(f"{k}: stored {_short(stored.get(k))}, given {_short(wanted.get(k))}" for k in differ)
+    raise CampaignStorageError(
+        path, f"holds another campaign ({detail}); give the same arguments to resume it, or another --out"
+    )
+
+
+def _short(value: Any, limit: int = 60) -> str:
+    text = json.dumps(value, sort_keys=True)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _write_atomically(path: Path, data: bytes) -> None:
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
+    with open(tmp, "wb") as stream:
+        stream.write(data)
+        stream.flush()
+        os.fsync(stream.fileno())
+    os.replace(tmp, path)
+
+
+def create_folder(out_dir: str | os.PathLike[str], definition: Mapping[str, Any]) -> Path:
+    """Make ``out_dir/rows`` and write the definition if absent (after :func:`check_folder`)."""
+    path = Path(out_dir)
+    existing = check_folder(path, definition)
+    (path / ROWS_DIR).mkdir(parents=True, exist_ok=True)
+    if not existing:
+        text = json.dumps(_canonical(definition), indent=1, sort_keys=True) + "\n"
+        _write_atomically(path / DEFINITION_FILE, text.encode())
+    return path
+
+
+@contextlib.contextmanager
+def client_lock(out_dir: str | os.PathLike[str]) -> Iterator[None]:
+    """Hold ``out_dir/.lock`` while the block runs (POSIX ``flock``; a no-op where there is none).
+
+    Raises:
+        CampaignStorageError: another client holds the lock.
+    """
+    try:
+        import fcntl
+    except ImportError:  # Windows: no advisory lock, one client per folder is up to the user
+        yield
+        return
+    with open(Path(out_dir) / LOCK_FILE, "a") as stream:
+        try:
+            fcntl.flock(stream.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise CampaignStorageError(
+                Path(out_dir), "another client is running this campaign (its .lock is held)"
+            ) from None
+        try:
+            yield
+        finally:
+            fcntl.flock(stream.fileno(), fcntl.LOCK_UN)
+
+
+def _parts(out_dir: str | os.PathLike[str]) -> list[Path]:
+    return sorted((Path(out_dir) / ROWS_DIR).glob("part-*.parquet"))
+
+
+def stored_keys(out_dir: str | os.PathLike[str]) -> set[str]:
+    """The keys of the rows stored in ``out_dir/rows`` (temporary files are ignored)."""
+    import pyarrow.parquet as pq
+
+    keys: set[str] = set()
+    for part in _parts(out_dir):
+        keys.update(pq.read_table(part, columns=["key"]).column("key").to_pylist())
+    return keys
+
+
+def read_rows(out_dir: str | os.PathLike[str]) -> Any:
+    """Every stored row as a pandas DataFrame with the columns of :data:`~.metrics.COLUMNS`."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    schema = arrow_schema()
+    tables = [pq.read_table(part, schema=schema) for part in _parts(out_dir)]
+    return (pa.concat_tables(tables) if tables else schema.empty_table()).to_pandas()
+
+
+def save_series(out_dir: str | os.PathLike[str], key: str, result: Any) -> Path:
+    """Write one run's :class:`~ibvs_youla.simulation.results.SimulationResult` to ``series/<key>.npz``."""
+    folder = Path(out_dir) / SERIES_DIR
+    folder.mkdir(exist_ok=True)
+    tmp = result.save(folder / f".{key}.{uuid.uuid4().hex}.tmp.npz")
+    path = folder / f"{key}.npz"
+    os.replace(tmp, path)
+    return path
+
+
+class RowWriter:
+    """Buffers rows and writes them as Parquet parts (module docstring), by count or by age.
+
+    Args:
+        out_dir: The campaign folder (``out_dir/rows`` must exist).
+        batch_rows: Flush when this many rows wait.
+        batch_seconds: Flush when the oldest waiting row is this old [s] (checked by the caller
+            through :meth:`seconds_until_due`, and on :meth:`add`).
+    """
+
+    def __init__(self, out_dir: str | os.PathLike[str], batch_rows: int = 20, batch_seconds: float = 10.0):
+        self.rows_dir = Path(out_dir) / ROWS_DIR
+        self.batch_rows = int(batch_rows)
+        self.batch_seconds = float(batch_seconds)
+        self.written = 0  # rows written by this writer
+        self.parts: list[Path] = []
+        self._buffer: list[dict[str, Any]] = []
+        self._since: float | None = None  # time.monotonic() of the oldest waiting row
+        self._schema = arrow_schema()
+
+    def __len__(self) -> int:
+        return len(self._buffer)
+
+    def add(self, row: Mapping[str, Any]) -> Path | None:
+        """Buffer one row; flush if a batch is due; return the part written, if any."""
+        if self._since is None:
+            self._since = time.monotonic()
+        self._buffer.append(dict(row))
+        return self.flush() if self.seconds_until_due() == 0.0 else None
+
+    def seconds_until_due(self) -> float | None:
+        """Seconds until the waiting rows are due (0: now), None when no row waits."""
+        if not self._buffer or self._since is None:
+            return None
+        if len(self._buffer) >= self.batch_rows:
+            return 0.0
+        return max(0.0, self.batch_seconds - (time.monotonic() - self._since))
+
+    def flush(self) -> Path | None:
+        """Write the waiting rows as one part (temporary file, fsync, rename); None if none wait."""
+        if not self._buffer:
+            return None
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        table = pa.Table.from_pylist(self._buffer, schema=self._schema)
+        name = f"part-{uuid.uuid4().hex}.parquet"
+        tmp = self.rows_dir / f".{name}.tmp"
+        with open(tmp, "wb") as stream:
+            pq.write_table(table, stream, compression="zstd")
+            stream.flush()
+            os.fsync(stream.fileno())
+        path = self.rows_dir / name
+        os.replace(tmp, path)
+        self.written += len(self._buffer)
+        self.parts.append(path)
+        self._buffer, self._since = [], None
+        return path

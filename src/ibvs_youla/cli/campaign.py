@@ -1,0 +1,140 @@
+"""``ibvs-youla campaign``: every method on the same seeded cases, locally or on a Dask cluster.
+
+``ibvs-youla campaign --cases 200 --controllers ff+fb,fb,ibvs-current --out runs/arm`` draws 200
+cases of ``--family`` (default ``arm-physical``) from ``--seed`` and runs each with every
+controller on this machine's cores (a ``LocalCluster`` of one-thread processes), or on an
+existing cluster with ``--scheduler tcp://HOST:PORT``. Rows go to ``DIR/rows`` (Parquet) as they
+finish; the same command resumes an interrupted campaign. The defaults per family, what a
+family may run on, and the storage are those of :mod:`ibvs_youla.campaign.runner` and
+:mod:`ibvs_youla.campaign.storage`.
+
+Argument errors (an unknown controller or family, a free family on an arm plant or an arm
+family on the free camera, the paper's joint-commanding controllers on the free camera, a
+seed that is not an integer, ``--workers`` with ``--scheduler``) exit with 2; a folder holding
+another campaign, an unreachable scheduler, or runs the cluster failed to return exit with 1.
+Nothing is written to ``--out`` before the arguments, the folder and the scheduler are checked.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from typing import Any
+
+from .base import PROG, UsageError, one_line
+
+
+def seed(text: str) -> int:
+    """``--seed``: an integer >= 0 (argparse type)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"received {text!r}; valid values are integers >= 0")
+    return value
+
+
+def count(low: int) -> Any:
+    """An argparse type for integers >= ``low``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = low - 1
+        if value < low:
+            raise argparse.ArgumentTypeError(f"received {text!r}; valid values are integers >= {low}")
+        return value
+
+    return parse
+
+
+def scheduler_address(text: str) -> str:
+    """``--scheduler``: ``[tcp://]HOST:PORT`` (argparse type; reaching it is checked later)."""
+    from distributed.comm import parse_address, parse_host_port
+
+    try:
+        _, location = parse_address(text)
+        parse_host_port(location)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(
+            f"received {text!r} ({err}); valid: a scheduler address such as tcp://127.0.0.1:8786"
+        ) from None
+    return text
+
+
+def run(args: argparse.Namespace, extra: list[str]) -> int:
+    """Run the campaign, print what was stored; return 0, or 1 when runs could not be stored."""
+    from .. import controllers
+    from ..campaign.runner import FAMILY_DEFAULTS, CampaignDefinition, run_campaign
+    from ..campaign.storage import read_rows
+    from ..exceptions import InvalidParameterError
+
+    if args.scheduler is not None and args.workers is not None:
+        raise UsageError("campaign: --workers sets the local cluster; with --scheduler the cluster's run")
+    plant = args.plant or FAMILY_DEFAULTS[args.family]["plant"]
+    names = args.controllers
+    if names is None:  # every method that can run on the plant
+        names = tuple(
+            n
+            for n in controllers.names()
+            if plant != "free-camera" or controllers.make(n).command_type.value == "camera_twist"
+        )
+    # the client's own log would print the reconnection attempts' tracebacks: errors are one line here
+    logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
+    try:
+        definition = CampaignDefinition(
+            family=args.family,
+            cases=args.cases,
+            controllers=names,
+            seed=args.seed,
+            plant=plant,
+            camera=args.camera,
+            duration=args.duration,
+            difficulty=args.difficulty,
+        )
+    except InvalidParameterError as err:
+        raise UsageError(f"campaign: {one_line(err)}") from None
+    summary = run_campaign(
+        definition,
+        args.out,
+        scheduler=args.scheduler,
+        workers=args.workers,
+        progress=not args.no_progress,
+        series=args.series,
+        batch_rows=args.batch_rows,
+    )
+    d = definition
+    where = f"scheduler {args.scheduler}" if args.scheduler else f"{summary.workers} local workers"
+    if args.workers == 0:
+        where = "this process"
+    print(
+        f"{d.family}: {d.cases} cases x {len(d.controllers)} methods = {d.runs} runs on the {d.plant} plant "
+        f"({d.camera['kind']} camera, {d.duration:g} s, seed {d.seed})"  # type: ignore[index]
+    )
+    if summary.ran:
+        print(
+            f"  {summary.stored_before} stored before, {summary.ran} run on {where} in {summary.run_s:.1f} s "
+            f"({summary.runs_per_minute:.0f} runs/min), {summary.errors} errors; rows in {args.out / 'rows'}"
+        )
+    else:
+        print(
+            f"  {summary.stored_before} of {d.runs} runs stored, nothing to run; rows in {args.out / 'rows'}"
+        )
+    if summary.other_rows:
+        print(f"  note: {summary.other_rows} stored rows are no run of this definition (another version?)")
+    rows = read_rows(args.out)
+    if len(rows):
+        table = rows.pivot_table(index="controller", columns="outcome", values="key", aggfunc="count")
+        table = table.reindex(list(d.controllers)).fillna(0).astype(int)
+        print(table.to_string())
+    if summary.not_stored:
+        print(
+            f"{PROG}: error: {summary.not_stored} runs failed on their workers and were not stored "
+            f"(first: {summary.first_failure}); rerun the same command to retry them",
+            file=sys.stderr,
+        )
+        return 1
+    return 0

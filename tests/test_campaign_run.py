@@ -1,0 +1,378 @@
+"""Campaign runs: stored once per (case, method), resumed, the same rows on a real Dask cluster.
+
+The campaign of these tests: 12 free-planar cases (seed 3) x ibvs-current, pbvs, ibvs-desired,
+20 s at 25 Hz on the free camera (36 runs, ~0.05 s each). Its rows from this process
+(``workers=0``) are the reference that a real scheduler with two workers (one killed with
+SIGKILL mid-run) and an interrupted-then-resumed client must reproduce: every column equal,
+floats to 1e-12, except the measured times (wall_s, update_median_us, update_p95_us).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from distributed import Client
+
+from ibvs_youla import cli, controllers
+from ibvs_youla.campaign import runner
+from ibvs_youla.campaign.metrics import COLUMNS
+from ibvs_youla.campaign.runner import CampaignDefinition, run_campaign
+from ibvs_youla.campaign.storage import RowWriter, read_rows, stored_keys
+from ibvs_youla.exceptions import InvalidParameterError
+from ibvs_youla.simulation.results import SimulationResult
+
+CONTROLLERS = ("ibvs-current", "pbvs", "ibvs-desired")
+DEFINITION = {"family": "free-planar", "cases": 12, "controllers": CONTROLLERS, "seed": 3, "duration": 20.0}
+RUNS = 36
+CLI_ARGS = [
+    "campaign",
+    "--family",
+    "free-planar",
+    "--cases",
+    "12",
+    "--controllers",
+    ",".join(CONTROLLERS),
+    "--seed",
+    "3",
+    "--duration",
+    "20",
+    "--batch-rows",
+    "3",
+    "--no-progress",
+]
+TIMED = ("wall_s", "update_median_us", "update_p95_us")
+PYTHON_CLI = "import sys; from ibvs_youla.cli import main; sys.exit(main(sys.argv[1:]))"
+
+
+def _cli(capsys, *argv):
+    code = cli.main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _one_line(err):
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("ibvs-youla: error: ") and "Traceback" not in err, err
+    return lines[0]
+
+
+def _snapshot(path: Path) -> dict[str, bytes] | None:
+    """Every file under ``path`` with its bytes, or None when it does not exist."""
+    if not path.exists():
+        return None
+    return {str(p.relative_to(path)): p.read_bytes() for p in sorted(path.rglob("*")) if p.is_file()}
+
+
+def assert_same_rows(rows: pd.DataFrame, reference: pd.DataFrame) -> None:
+    """One row per (case, controller), all of them, equal to the reference but for the timings."""
+    assert len(rows) == RUNS and not rows.duplicated(["case", "controller"]).any()
+    assert not rows["key"].duplicated().any()
+    a, b = rows.set_index("key").sort_index(), reference.set_index("key").sort_index()
+    assert list(a.index) == list(b.index)
+    for column, kind in COLUMNS.items():
+        if column in TIMED or column == "key":
+            continue
+        if kind is float:
+            np.testing.assert_allclose(a[column], b[column], rtol=1e-12, atol=1e-12, equal_nan=True)
+        else:
+            assert list(a[column]) == list(b[column]), column
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The campaign run in this process, without Dask: its folder and rows."""
+    out = tmp_path_factory.mktemp("campaign") / "reference"
+    summary = run_campaign(CampaignDefinition(**DEFINITION), out, workers=0, progress=False, batch_rows=8)
+    assert (summary.runs, summary.stored_before, summary.ran, summary.errors) == (RUNS, 0, RUNS, 0)
+    return out, read_rows(out)
+
+
+# ----------------------------------------------------------------------------- one process, storage
+def test_one_process_stores_every_row_once_and_a_rerun_adds_nothing(reference):
+    out, rows = reference
+    assert_same_rows(rows, rows)
+    assert sorted(zip(rows["case"], rows["controller"], strict=True)) == sorted(
+        (case, name) for case in range(12) for name in CONTROLLERS
+    )
+    on_disk = pd.read_parquet(out / "rows")  # the dataset as any reader sees it
+    assert list(on_disk.columns) == list(COLUMNS) and len(on_disk) == RUNS
+    assert len(list((out / "rows").glob("part-*.parquet"))) == math.ceil(RUNS / 8)  # 8 rows per part
+    # the schema comes from COLUMNS: an all-NaN column (no torque on the free camera) stays float
+    assert on_disk["peak_torque_ratio"].dtype == np.float64 and on_disk["peak_torque_ratio"].isna().all()
+    assert on_disk["qp_infeasible_frames"].dtype == np.int64 and on_disk["case"].dtype == np.int64
+    assert set(rows["outcome"]) == {"reached"}  # every method reaches these 12 cases in 20 s
+    stored = json.loads((out / "campaign.json").read_text())
+    assert stored == {"format": 1, **json.loads(json.dumps(CampaignDefinition(**DEFINITION).to_dict()))}
+    assert stored["settings"] == {"joint_rate_hz": 25.0, "camera_rate_hz": 25.0}  # the free family's
+    before = _snapshot(out / "rows")
+    again = run_campaign(CampaignDefinition(**DEFINITION), out, workers=0, progress=False)
+    assert (again.stored_before, again.ran) == (RUNS, 0)
+    assert _snapshot(out / "rows") == before
+
+
+def test_temporary_files_are_not_rows(tmp_path):
+    (tmp_path / "rows").mkdir()
+    writer = RowWriter(tmp_path, batch_rows=2, batch_seconds=1e9)
+    row = {name: (0.5 if kind is float else 1 if kind is int else "x") for name, kind in COLUMNS.items()}
+    assert writer.add({**row, "key": "a"}) is None and writer.seconds_until_due() > 0.0
+    part = writer.add({**row, "key": "b"})  # the second row completes the batch
+    assert part is not None and part.name.startswith("part-") and writer.written == 2 and len(writer) == 0
+    (tmp_path / "rows" / ".part-crashed.parquet.tmp").write_bytes(b"PAR1 half a file")  # a crash mid-write
+    assert stored_keys(tmp_path) == {"a", "b"}
+    assert sorted(pd.read_parquet(tmp_path / "rows")["key"]) == ["a", "b"]
+
+
+def test_series_are_stored_one_file_per_run(tmp_path):
+    definition = CampaignDefinition(**{**DEFINITION, "cases": 1, "duration": 2.0})
+    run_campaign(definition, tmp_path, workers=0, progress=False, series=True)
+    rows = read_rows(tmp_path)
+    assert sorted(p.stem for p in (tmp_path / "series").glob("*.npz")) == sorted(rows["key"])
+    for row in rows.itertuples():
+        result = SimulationResult.load(tmp_path / "series" / f"{row.key}.npz")
+        assert result.final_pose_error()[0] == pytest.approx(row.final_position_mm, rel=1e-12)
+        assert result.duration == pytest.approx(2.0, abs=1e-9)
+
+
+def test_definitions_take_their_family_defaults():
+    arm = CampaignDefinition("arm-physical", 2, ("ff+fb", "pbvs"))
+    assert (arm.plant, arm.camera, arm.duration, arm.settings) == ("dynamic", {"kind": "stereo"}, 20.0, {})
+    free = CampaignDefinition("free-nonplanar", 2, ("pbvs",), camera="mono", controller_params={"pbvs": {}})
+    assert (free.plant, free.camera, free.duration) == ("free-camera", {"kind": "mono"}, 30.0)
+    assert free.settings == {"joint_rate_hz": 25.0, "camera_rate_hz": 25.0} and free.runs == 2
+    assert CampaignDefinition.from_dict(json.loads(json.dumps(free.to_dict()))) == free
+    with pytest.raises(InvalidParameterError, match="'dynamic' or 'kinematic' for the arm family"):
+        CampaignDefinition("arm-virtual", 1, ("pbvs",), plant="free-camera")
+    with pytest.raises(InvalidParameterError, match="controller_params"):
+        CampaignDefinition("free-planar", 1, ("pbvs",), controller_params={"hybrid": {}})
+    with pytest.raises(InvalidParameterError, match="params"):
+        CampaignDefinition("free-planar", 1, ("pbvs",), controller_params={"pbvs": {"gian": 1.0}})
+
+
+def test_without_controllers_every_method_the_plant_takes_runs(capsys, tmp_path):
+    code, _, _ = _cli(capsys, "campaign", "--family", "free-planar", "--cases", "1", "--duration", "0.2")
+    assert code == 2  # --out is required
+    argv = ("campaign", "--family", "free-planar", "--cases", "1", "--duration", "0.2", "--workers", "0")
+    code, stdout, _ = _cli(capsys, *argv, "--out", str(tmp_path / "all"))
+    twist = [n for n in controllers.names() if n not in ("fb", "ff+fb")]  # fb, ff+fb command joints
+    assert code == 0 and f"1 cases x {len(twist)} methods" in stdout
+    assert sorted(read_rows(tmp_path / "all")["controller"]) == sorted(twist)
+
+
+# ----------------------------------------------------------------------------- a real cluster
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _wait_for(predicate, timeout, what):
+    t_end = time.monotonic() + timeout
+    while time.monotonic() < t_end:
+        if predicate():
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+
+def _stored(out: Path) -> int:
+    return len(stored_keys(out)) if (out / "rows").is_dir() else 0
+
+
+@pytest.fixture
+def processes():
+    """Subprocesses started by a test; every one still alive is killed (by its id) at teardown."""
+    started: list[subprocess.Popen] = []
+    yield started
+    for proc in started:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait(timeout=30)
+
+
+@pytest.fixture
+def cluster(tmp_path, processes):
+    """A scheduler and two one-thread workers, each a `dask` command-line process on 127.0.0.1."""
+    dask = str(Path(sys.executable).with_name("dask"))
+    log = tmp_path / "dask-logs"
+    log.mkdir()
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    scheduler = [
+        dask,
+        "scheduler",
+        "--host",
+        "127.0.0.1",
+        "--port",
+        address.rsplit(":", 1)[1],
+        "--no-dashboard",
+    ]
+    with open(log / "scheduler.log", "w") as stream:
+        processes.append(subprocess.Popen(scheduler, stdout=stream, stderr=subprocess.STDOUT))
+    scheduler_process = processes[-1]
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    worker = [dask, "worker", address, "--nthreads", "1", "--nworkers", "1", "--no-nanny", "--no-dashboard"]
+    worker += ["--host", "127.0.0.1", "--local-directory", str(tmp_path / "scratch")]
+    workers = []
+    for k in range(2):
+        with open(log / f"worker{k}.log", "w") as stream:
+            workers.append(subprocess.Popen(worker, stdout=stream, stderr=subprocess.STDOUT, env=env))
+    processes.extend(workers)
+
+    def both_joined():
+        text = "".join((log / f"worker{k}.log").read_text() for k in range(2))
+        return text.count("Registered to:") == 2
+
+    _wait_for(both_joined, 60, "two workers to register")
+    return address, scheduler_process, workers
+
+
+def test_a_real_cluster_losing_a_worker_stores_every_row_once(tmp_path, reference, cluster, processes):
+    address, _, workers = cluster
+    out = tmp_path / "distributed"
+    client = subprocess.Popen(
+        [sys.executable, "-c", PYTHON_CLI, *CLI_ARGS, "--out", str(out), "--scheduler", address, "--series"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    processes.append(client)
+    _wait_for(lambda: _stored(out) >= RUNS // 2 or client.poll() is not None, 60, "half the rows")
+    with Client(address, timeout=10) as observer:  # which worker runs a task now, and its pid
+        busy = [w for w, tasks in observer.processing().items() if tasks]
+        pid = observer.run(os.getpid, workers=busy[:1])[busy[0]] if busy else None
+        stored_at_kill = _stored(out)
+        (victim,) = [w for w in workers if w.pid == pid]
+        victim.send_signal(signal.SIGKILL)
+    stdout, stderr = client.communicate(timeout=120)
+    assert client.returncode == 0, stderr
+    assert victim.wait(timeout=10) == -signal.SIGKILL and sum(w.poll() is None for w in workers) == 1
+    assert RUNS // 2 <= stored_at_kill < RUNS  # the worker died mid-campaign, running a task
+    assert f"{RUNS} run on scheduler {address}" in stdout
+    assert_same_rows(read_rows(out), reference[1])
+    assert len(list((out / "series").glob("*.npz"))) == RUNS and not list((out / "series").glob(".*"))
+
+
+def test_a_lost_scheduler_is_one_line_and_keeps_the_rows(tmp_path, cluster, processes):
+    address, scheduler, _ = cluster
+    out = tmp_path / "lost"
+    client = subprocess.Popen(
+        [sys.executable, "-c", PYTHON_CLI, *CLI_ARGS, "--out", str(out), "--scheduler", address],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    processes.append(client)
+    _wait_for(lambda: _stored(out) >= 6 or client.poll() is not None, 60, "two batches")
+    scheduler.send_signal(signal.SIGKILL)
+    _, stderr = client.communicate(timeout=60)
+    line = _one_line(stderr)
+    assert client.returncode == 1 and f"scheduler {address}: lost the connection" in line
+    rows = read_rows(out)
+    assert 6 <= len(rows) < RUNS and f"the {len(rows)} rows returned by this call are stored" in line
+    assert not rows["key"].duplicated().any()
+
+
+def test_a_killed_client_resumes_with_the_same_command(tmp_path, reference, processes):
+    import psutil
+
+    out = tmp_path / "interrupted"
+    command = [sys.executable, "-c", PYTHON_CLI, *CLI_ARGS, "--out", str(out), "--workers", "2"]
+    first = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    processes.append(first)
+    _wait_for(lambda: _stored(out) >= 6 or first.poll() is not None, 90, "two batches")
+    children = psutil.Process(first.pid).children(recursive=True)  # the local cluster's workers
+    first.send_signal(signal.SIGKILL)
+    first.communicate(timeout=30)
+    stored_at_kill = _stored(out)
+    assert first.returncode == -signal.SIGKILL and 6 <= stored_at_kill < RUNS
+    assert len(children) >= 2
+    _, alive = psutil.wait_procs(children, timeout=20)  # the workers follow their client
+    for proc in alive:  # (never expected: killed by id so that the test leaves nothing behind)
+        proc.kill()
+    assert not alive
+    second = subprocess.run(command, capture_output=True, text=True, timeout=120, check=False)
+    assert second.returncode == 0, second.stderr
+    assert f"{stored_at_kill} stored before, {RUNS - stored_at_kill} run on 2 local workers" in second.stdout
+    assert_same_rows(read_rows(out), reference[1])
+
+
+# ----------------------------------------------------------------------------- bad input
+FREE = ["campaign", "--family", "free-planar", "--cases", "2", "--duration", "1"]
+
+
+@pytest.mark.parametrize(
+    ("argv", "fragments"),
+    [
+        ((*FREE, "--controllers", "pbvs,pid"), ["'pid'", "ibvs-current"]),
+        ((*FREE, "--controllers", "pbvs,ff+fb"), ["'ff+fb'", "joint_position", "camera twist"]),
+        ((*FREE, "--controllers", "pbvs", "--plant", "dynamic"), ["'dynamic'", "'free-camera'"]),
+        (
+            ("campaign", "--cases", "2", "--controllers", "pbvs", "--plant", "free-camera"),
+            ["'free-camera'", "arm family 'arm-physical'"],
+        ),
+        ((*FREE, "--seed", "1.5"), ["--seed", "'1.5'", "integers >= 0"]),
+        ((*FREE, "--seed", "-2"), ["--seed", "'-2'"]),
+        ((*FREE, "--cases", "0"), ["--cases", "'0'", ">= 1"]),
+        ((*FREE, "--family", "free-spherical"), ["'free-spherical'", "'free-planar'"]),
+        ((*FREE, "--scheduler", "nowhere"), ["--scheduler", "'nowhere'", "tcp://"]),
+        ((*FREE, "--scheduler", "tcp://127.0.0.1:1", "--workers", "2"), ["--workers", "--scheduler"]),
+    ],
+)
+def test_bad_arguments_exit_2_and_write_nothing(capsys, tmp_path, argv, fragments):
+    out = tmp_path / "out"
+    code, stdout, err = _cli(capsys, *argv, "--out", str(out))
+    assert code == 2 and stdout == ""
+    line = _one_line(err)
+    for fragment in fragments:
+        assert fragment in line
+    assert not out.exists()
+
+
+def test_missing_arguments_exit_2(capsys):
+    code, _, err = _cli(capsys, "campaign", "--cases", "3")
+    assert code == 2 and "--out" in _one_line(err)
+
+
+def test_an_unreachable_scheduler_exits_1_and_writes_nothing(capsys, tmp_path, monkeypatch):
+    monkeypatch.setattr(runner, "CONNECT_TIMEOUT_S", 1.0)
+    out = tmp_path / "out"
+    address = f"tcp://127.0.0.1:{_free_port()}"  # nothing listens there
+    t0 = time.monotonic()
+    code, _, err = _cli(capsys, *FREE, "--controllers", "pbvs", "--out", str(out), "--scheduler", address)
+    assert code == 1 and f"scheduler {address}: cannot connect" in _one_line(err)
+    assert time.monotonic() - t0 < 10.0 and not out.exists()
+
+
+def test_a_folder_of_another_campaign_or_other_files_is_refused(capsys, tmp_path):
+    out = tmp_path / "out"
+    code, stdout, _ = _cli(capsys, *FREE, "--controllers", "pbvs", "--out", str(out), "--workers", "0")
+    assert code == 0 and "0 stored before, 2 run on this process" in stdout
+    before = _snapshot(out)
+    code, _, err = _cli(capsys, *FREE, "--controllers", "pbvs", "--seed", "7", "--out", str(out))
+    line = _one_line(err)
+    assert code == 1 and "holds another campaign" in line and "seed: stored 0, given 7" in line
+    assert _snapshot(out) == before
+    code, stdout, _ = _cli(capsys, *FREE, "--controllers", "pbvs", "--out", str(out), "--workers", "0")
+    assert code == 0 and "2 of 2 runs stored, nothing to run" in stdout and _snapshot(out) == before
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("mine")
+    code, _, err = _cli(capsys, *FREE, "--controllers", "pbvs", "--out", str(other), "--workers", "0")
+    assert code == 1 and "holds other files (notes.txt)" in _one_line(err)
+    assert _snapshot(other) == {"notes.txt": b"mine"}
+
+
+def test_campaign_help(capsys):
+    code, out, _ = _cli(capsys, "campaign", "--help")
+    assert code == 0 and out.startswith("usage: ibvs-youla campaign")
+    assert "--scheduler" in out and "--workers" in out and "--series" in out

@@ -116,3 +116,43 @@ def test_controllers_benchmark_reference_law_is_classical_ibvs():
     got = load("bench_controllers").numpy_ibvs(s, P_C[:, 2], s_target, 0.5)
     assert np.max(np.abs(got - expected)) < 1e-12
     assert np.linalg.norm(expected) > 1e-3  # a non-trivial twist
+
+
+@pytest.mark.slow
+def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
+    out = tmp_path / "campaign.json"
+    argv = [
+        "--cases",
+        "1",
+        "--arm-cases",
+        "1",
+        "--duration",
+        "0.2",
+        "--arm-duration",
+        "0.05",
+        "--json",
+        str(out),
+    ]
+    report = load("bench_campaign").main(argv)
+    saved = json.loads(out.read_text())
+    assert set(saved["campaigns"]) == {"free", "arm"}
+    for name, runs in (("free", 7), ("arm", 9)):  # 1 case x 7 twist methods; x all 9 methods on the arm
+        campaign = saved["campaigns"][name]
+        assert campaign["runs"] == runs and campaign["same_rows"] is True
+        assert set(campaign["workers"]) == {"1", "2"}
+        for entry in (campaign["serial"], *campaign["workers"].values()):
+            assert finite_positive(entry["runs_per_minute"]) and finite_positive(entry["wall_s"])
+            assert entry["runs_per_minute"] == pytest.approx(runs / entry["wall_s"] * 60.0)
+            assert sum(entry["outcomes"].values()) == runs
+        for k, entry in campaign["workers"].items():
+            assert entry["overhead_share"] == pytest.approx(
+                1.0 - entry["run_wall_sum_s"] / int(k) / entry["wall_s"]
+            )
+            assert entry["files"] == 1  # fewer rows than one batch
+        one, two = (campaign["workers"][k]["runs_per_minute"] for k in ("1", "2"))
+        assert campaign["scaling"] == pytest.approx(two / one)
+    minutes = saved["projection"]["free_1000x7_minutes"]
+    assert minutes["2"] == pytest.approx(7000 / saved["campaigns"]["free"]["workers"]["2"]["runs_per_minute"])
+    assert set(saved["targets"]["met"]) == {"scaling", "overhead_share", "free_1000x7_minutes"}
+    assert saved["machine"]["cores"] >= 1 and saved["machine"]["date"]
+    assert report["campaigns"]["free"]["scaling"] == saved["campaigns"]["free"]["scaling"]

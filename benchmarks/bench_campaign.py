@@ -1,0 +1,353 @@
+"""Campaign throughput: runs per minute with 1 and 2 Dask workers, their ratio, the time outside the runs.
+
+Two stated campaigns (seed 0), each timed in this process without Dask (``serial``) and on a Dask
+``LocalCluster(n_workers=k, threads_per_worker=1, processes=True)`` for k = 1 and 2:
+
+* ``free``: the free-planar family, the seven camera-twist methods (``ibvs-current``,
+  ``ibvs-desired``, ``ibvs-mean``, ``pbvs``, ``2.5d``, ``hybrid``, ``mpc-ibvs``), the free camera,
+  the normalized monocular camera at 25 Hz, 20 s per run, ``--cases`` 30 cases (210 runs);
+* ``arm``: the arm-physical family, every registered method (the paper's ``fb`` and ``ff+fb``
+  and the seven), the dynamic IRB 4600 (joint loop 1 kHz), the ZED 2 stereo camera at 100 Hz,
+  10 s per run, ``--arm-cases`` 3 cases (27 runs).
+
+What one timed campaign does, as a campaign's client would: ``client.map(run_spec, specs,
+pure=False)``, the rows taken as they complete (``distributed.as_completed``) and written in
+batches of ``--batch`` rows (a Parquet file written under a temporary name, then renamed). Its
+wall time runs from the map to the last file renamed. Each worker first runs a 0.2 s version of
+every spec's method, pinned to it (imports, the arm, OpenCV and DAQP warmed up; untimed).
+
+Reported per campaign and worker count: ``runs_per_minute`` = runs / wall x 60; ``busy_s`` = the
+sum of the rows' ``wall_s`` (each run's own time in ``run_spec``) / k; ``overhead_share`` = 1 -
+busy_s / wall, the share of the wall time the workers did not spend in runs (scheduling,
+serialization, the client's writing, idle workers at the end); ``write_s``, the client's time in
+the Parquet writes; ``scaling`` = runs per minute with 2 workers / with 1. ``same_rows`` checks that
+every worker count gave the serial rows (timing columns aside). ``own_cores`` and ``other_cores``
+(:class:`CpuMeter`) tell whether other jobs shared the cores meanwhile. With ``--repeats`` > 1
+the configurations alternate and each figure is the median repeat's.
+
+Run: ``python benchmarks/bench_campaign.py --json campaign.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+try:  # imported as benchmarks.bench_campaign
+    from ._timing import machine, perf_counter, write_json
+except ImportError:  # run as a script
+    from _timing import machine, perf_counter, write_json
+
+from ibvs_youla.campaign.cases import generate_cases
+from ibvs_youla.campaign.run import run_spec
+from ibvs_youla.campaign.spec import ExperimentSpec, specs_for
+
+TWIST_METHODS = ("ibvs-current", "ibvs-desired", "ibvs-mean", "pbvs", "2.5d", "hybrid", "mpc-ibvs")
+ARM_METHODS = ("fb", "ff+fb", *TWIST_METHODS)
+WORKERS = (1, 2)
+TIMING_COLUMNS = ("wall_s", "update_median_us", "update_p95_us")
+WARM_UP_S = 0.2  # [s] simulated per warm-up run
+TARGETS = {"scaling_min": 1.7, "overhead_share_max": 0.05, "free_1000x7_minutes_max": 5.0}
+
+
+def campaigns(args: argparse.Namespace) -> dict[str, dict[str, Any]]:
+    """The two stated campaigns: their description and specs."""
+    free = {
+        "family": "free-planar",
+        "methods": TWIST_METHODS,
+        "plant": "free-camera",
+        "camera": {"kind": "normalized"},
+        "duration": args.duration,
+        "settings": {"joint_rate_hz": 25.0, "camera_rate_hz": 25.0},
+        "cases": args.cases,
+    }
+    arm = {
+        "family": "arm-physical",
+        "methods": ARM_METHODS,
+        "plant": "dynamic",
+        "camera": {"kind": "stereo"},
+        "duration": args.arm_duration,
+        "settings": {"joint_rate_hz": 1000.0, "camera_rate_hz": 100.0},
+        "cases": args.arm_cases,
+    }
+    out = {}
+    for name, c in (("free", free), ("arm", arm)):
+        cases = generate_cases(c["family"], c["cases"], 0)
+        specs = specs_for(
+            cases,
+            c["methods"],
+            seed=0,
+            plant=c["plant"],
+            camera=c["camera"],
+            duration=c["duration"],
+            settings=c["settings"],
+        )
+        out[name] = {**c, "methods": list(c["methods"]), "runs": len(specs), "specs": specs}
+    return out
+
+
+def warm_up_specs(specs: list[ExperimentSpec]) -> list[ExperimentSpec]:
+    """One short spec per method of ``specs`` (its first case, :data:`WARM_UP_S` simulated)."""
+    first: dict[str, ExperimentSpec] = {}
+    for s in specs:
+        first.setdefault(s.controller, s)
+    return [ExperimentSpec(**{**s.to_dict(), "duration": WARM_UP_S}) for s in first.values()]
+
+
+def write_batch(folder: Path, index: int, rows: list[dict[str, Any]]) -> None:
+    """One Parquet file of ``rows``, written under a temporary name and renamed."""
+    import pandas as pd
+
+    final = folder / f"part-{index:05d}.parquet"
+    tmp = final.with_name(f".{final.name}.tmp")  # hidden: skipped by Parquet readers
+    pd.DataFrame(rows).to_parquet(tmp)
+    os.replace(tmp, final)
+
+
+class CpuMeter:
+    """CPU used during a timed section [cores]: by this process and its children, and by the rest.
+
+    ``own_cores`` = CPU seconds (user + system) of this process and every process under it (the
+    cluster's nannies and workers) / wall; ``other_cores`` = the machine's busy CPU seconds (all
+    but idle, I/O wait and steal) / wall - ``own_cores``: other sessions' jobs on the shared
+    cores; ``steal_cores``: time the hypervisor gave the virtual CPUs to someone else.
+    """
+
+    def __init__(self) -> None:
+        import psutil
+
+        self._psutil = psutil
+        self._start = self._sample()
+
+    def _sample(self) -> tuple[float, float, float, float]:
+        me = self._psutil.Process()
+        own = 0.0
+        for proc in (me, *me.children(recursive=True)):
+            try:
+                times = proc.cpu_times()
+            except self._psutil.Error:  # a process that ended
+                continue
+            own += times.user + times.system
+        machine_ = self._psutil.cpu_times()
+        steal = getattr(machine_, "steal", 0.0)
+        busy = sum(machine_) - machine_.idle - getattr(machine_, "iowait", 0.0) - steal
+        return perf_counter(), own, busy, steal
+
+    def stop(self) -> dict[str, float]:
+        """The cores used since construction."""
+        end = self._sample()
+        wall = end[0] - self._start[0]
+        own, busy, steal = (b - a for a, b in zip(self._start[1:], end[1:], strict=True))
+        return {"own_cores": own / wall, "other_cores": (busy - own) / wall, "steal_cores": steal / wall}
+
+
+def run_on_client(client: Any, specs: list[ExperimentSpec], batch: int) -> dict[str, Any]:
+    """Map ``specs`` on the cluster, write the rows as they come in batches; time it all."""
+    from distributed import as_completed
+
+    with tempfile.TemporaryDirectory(prefix="bench-campaign-") as tmp:
+        folder = Path(tmp)
+        rows: list[dict[str, Any]] = []
+        pending: list[dict[str, Any]] = []
+        write_s, files = 0.0, 0
+        meter = CpuMeter()
+        t0 = perf_counter()
+        futures = client.map(run_spec, specs, pure=False)
+        for _, row in as_completed(futures, with_results=True):
+            rows.append(row)
+            pending.append(row)
+            if len(pending) >= batch:
+                t_write = perf_counter()
+                write_batch(folder, files, pending)
+                write_s += perf_counter() - t_write
+                files, pending = files + 1, []
+        if pending:
+            t_write = perf_counter()
+            write_batch(folder, files, pending)
+            write_s += perf_counter() - t_write
+            files += 1
+        wall = perf_counter() - t0
+        cpu = meter.stop()
+    return {"wall_s": wall, "write_s": write_s, "files": files, "rows": rows, "cpu": cpu}
+
+
+def run_serial(specs: list[ExperimentSpec]) -> dict[str, Any]:
+    """The same specs one after the other in this process (no Dask, no writing)."""
+    meter = CpuMeter()
+    t0 = perf_counter()
+    rows = [run_spec(s) for s in specs]
+    wall = perf_counter() - t0
+    return {"wall_s": wall, "write_s": 0.0, "files": 0, "rows": rows, "cpu": meter.stop()}
+
+
+def comparable(rows: list[dict[str, Any]]) -> list[tuple]:
+    """The rows without their timing columns, sorted by key (NaN made comparable)."""
+    out = []
+    for row in sorted(rows, key=lambda r: r["key"]):
+        items = tuple(
+            (k, "nan" if isinstance(v, float) and v != v else v)
+            for k, v in sorted(row.items())
+            if k not in TIMING_COLUMNS
+        )
+        out.append(items)
+    return out
+
+
+def figures(timed: dict[str, Any], workers: int) -> dict[str, Any]:
+    """Runs per minute, busy time, overhead share and per-run times of one timed campaign."""
+    rows = timed["rows"]
+    run_wall = np.array([r["wall_s"] for r in rows])
+    busy = float(run_wall.sum()) / workers
+    outcomes: dict[str, int] = {}
+    for r in rows:
+        outcomes[r["outcome"]] = outcomes.get(r["outcome"], 0) + 1
+    return {
+        "wall_s": timed["wall_s"],
+        "runs_per_minute": len(rows) / timed["wall_s"] * 60.0,
+        "busy_s": busy,
+        "overhead_share": 1.0 - busy / timed["wall_s"],
+        "write_s": timed["write_s"],
+        "files": timed["files"],
+        "run_wall_median_s": float(np.median(run_wall)),
+        "run_wall_sum_s": float(run_wall.sum()),
+        "outcomes": dict(sorted(outcomes.items())),
+        **timed["cpu"],
+    }
+
+
+def start_cluster(workers: int) -> tuple[Any, Any]:
+    """A LocalCluster of ``workers`` one-thread processes (no dashboard) and its client."""
+    from distributed import Client, LocalCluster
+
+    cluster = LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",  # any free port: the dashboard is not used
+        silence_logs=logging.ERROR,
+    )
+    return cluster, Client(cluster)
+
+
+def warm_up(client: Any, specs: list[ExperimentSpec]) -> None:
+    """Run :func:`warm_up_specs` on every worker, pinned to it."""
+    for address in client.scheduler_info()["workers"]:
+        futures = [client.submit(run_spec, s, workers=[address], pure=False) for s in specs]
+        client.gather(futures)
+
+
+def median_repeat(entries: list[dict[str, Any]]) -> dict[str, Any]:
+    """The repeat of median wall time, with every repeat's wall time."""
+    walls = [e["wall_s"] for e in entries]
+    chosen = dict(entries[int(np.argsort(walls)[len(walls) // 2])])
+    chosen["wall_s_repeats"] = walls
+    return chosen
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    """Run the benchmark, print a summary, write JSON if asked; return the report."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--json", metavar="FILE", help="write the report here")
+    ap.add_argument("--cases", type=int, default=30, help="free-camera cases (default 30, x 7 methods)")
+    ap.add_argument("--arm-cases", type=int, default=3, help="arm cases (default 3, x 9 methods)")
+    ap.add_argument("--duration", type=float, default=20.0, help="simulated s per free-camera run (20)")
+    ap.add_argument("--arm-duration", type=float, default=10.0, help="simulated s per arm run (10)")
+    ap.add_argument("--repeats", type=int, default=1, help="timed repeats of every configuration (1)")
+    ap.add_argument("--batch", type=int, default=50, help="rows per Parquet file written (50)")
+    args = ap.parse_args(argv)
+
+    load_before = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
+    plan = campaigns(args)
+    warm = [w for c in plan.values() for w in warm_up_specs(c["specs"])]
+    for s in warm:  # this process too, for the serial runs
+        run_spec(s)
+    with tempfile.TemporaryDirectory() as tmp:  # pandas and pyarrow imported before the timing
+        write_batch(Path(tmp), 0, [run_spec(warm[0])])
+    timed: dict[str, dict[str, list[dict[str, Any]]]] = {n: {} for n in plan}
+    serial_rows: dict[str, list[dict[str, Any]]] = {}
+    for _ in range(args.repeats):
+        for name, c in plan.items():
+            result = run_serial(c["specs"])
+            serial_rows[name] = result["rows"]
+            timed[name].setdefault("serial", []).append({**figures(result, 1), "rows": result["rows"]})
+        for k in WORKERS:
+            cluster, client = start_cluster(k)
+            try:
+                warm_up(client, warm)
+                for name, c in plan.items():
+                    result = run_on_client(client, c["specs"], args.batch)
+                    timed[name].setdefault(str(k), []).append({**figures(result, k), "rows": result["rows"]})
+            finally:
+                client.close()
+                cluster.close()
+
+    report: dict[str, Any] = {"machine": machine(), "load_average_1min_before": load_before}
+    report["settings"] = {k: v for k, v in vars(args).items() if k != "json"}
+    report["campaigns"] = {}
+    for name, c in plan.items():
+        entry = {k: v for k, v in c.items() if k != "specs"}
+        configs = {label: median_repeat(entries) for label, entries in timed[name].items()}
+        same = {
+            label: comparable(cfg.pop("rows")) == comparable(serial_rows[name])
+            for label, cfg in configs.items()
+        }
+        entry["serial"] = configs.pop("serial")
+        entry["workers"] = configs
+        entry["same_rows"] = all(same.values())
+        entry["scaling"] = configs["2"]["runs_per_minute"] / configs["1"]["runs_per_minute"]
+        entry["cases_per_hour"] = {
+            k: cfg["runs_per_minute"] * 60.0 / len(c["methods"]) for k, cfg in configs.items()
+        }
+        report["campaigns"][name] = entry
+    free = report["campaigns"]["free"]
+    minutes = {k: 1000 * len(TWIST_METHODS) / cfg["runs_per_minute"] for k, cfg in free["workers"].items()}
+    report["projection"] = {
+        "free_1000x7_minutes": minutes,
+        "free_1000x7_minutes_at_duration_s": args.duration,
+    }
+    report["targets"] = {
+        **TARGETS,
+        "met": {
+            "scaling": {n: c["scaling"] >= TARGETS["scaling_min"] for n, c in report["campaigns"].items()},
+            "overhead_share": {
+                f"{n}/{k}": cfg["overhead_share"] < TARGETS["overhead_share_max"]
+                for n, c in report["campaigns"].items()
+                for k, cfg in c["workers"].items()
+            },
+            "free_1000x7_minutes": minutes["2"] < TARGETS["free_1000x7_minutes_max"],
+        },
+    }
+    report["load_average_1min_after"] = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
+
+    for name, c in report["campaigns"].items():
+        s = c["serial"]
+        print(
+            f"{name}: {c['family']}, {len(c['methods'])} methods x {c['cases']} cases = {c['runs']} runs of "
+            f"{c['duration']:g} s on the {c['plant']} plant; serial {s['runs_per_minute']:.0f} runs/min "
+            f"(other jobs {s['other_cores']:.2f} cores)"
+        )
+        for k, cfg in c["workers"].items():
+            print(
+                f"  {k} worker(s): {cfg['runs_per_minute']:7.0f} runs/min, wall {cfg['wall_s']:.2f} s, "
+                f"overhead {cfg['overhead_share']:.1%} (writing {cfg['write_s']:.3f} s), "
+                f"run median {cfg['run_wall_median_s'] * 1e3:.0f} ms; cores: own {cfg['own_cores']:.2f}, "
+                f"other jobs {cfg['other_cores']:.2f}"
+            )
+        print(f"  scaling 2/1: {c['scaling']:.2f}; same rows as serial: {c['same_rows']}")
+    print(
+        f"1,000 free cases x 7 methods of {args.duration:g} s: {minutes['1']:.1f} min on 1 worker, "
+        f"{minutes['2']:.1f} min on 2"
+    )
+    write_json(args.json, report)
+    return report
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

@@ -115,12 +115,12 @@ def read_rows(folder: str | Path) -> pd.DataFrame:
     Raises:
         InvalidParameterError: ``folder/rows`` missing or holding no row.
     """
-    import pandas as pd
+    from .storage import read_rows as read_stored_rows  # one reader: the storage's schema and parts
 
     rows_dir = Path(folder) / "rows"
     if not rows_dir.is_dir() or not any(rows_dir.rglob("*.parquet")):
         raise InvalidParameterError("DIR", str(folder), "a campaign folder with rows in DIR/rows")
-    rows = pd.read_parquet(rows_dir)
+    rows = read_stored_rows(folder)
     if rows.empty:
         raise InvalidParameterError("DIR", str(folder), "a campaign folder with rows in DIR/rows")
     return rows.drop_duplicates("key", keep="last").reset_index(drop=True)

@@ -13,6 +13,7 @@ BENCHMARKS = {
     "outer": "bench_outer_loop",
     "simulation": "bench_simulation",
     "controllers": "bench_controllers",
+    "campaign": "bench_campaign",
 }
 
 

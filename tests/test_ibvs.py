@@ -92,7 +92,8 @@ def test_desired_interaction_decays_as_the_sampled_exponential():
     ratio = e[1:] / e[:-1]
     assert np.all(np.abs(ratio - (1.0 - LAMBDA * T)) <= 0.02 * e[:-1])
     assert np.abs(ratio - (1.0 - LAMBDA * T)).max() > 0.0  # the higher-order terms are there
-    # and the whole sequence stays within 1 % of (1 - lambda T)^k after 25 frames
+    # and the whole sequence stays within 1 % of (1 - lambda T)^k after 25 frames: the per-frame
+    # deviation above is second order in ||e|| (0.02 ||e_k||), summed over 25 frames of ||e|| ~ 4e-3
     assert e[25] / e[0] == pytest.approx((1.0 - LAMBDA * T) ** 25, rel=1e-2)
 
 
@@ -271,8 +272,10 @@ def test_local_minimum_of_current_ibvs():
     h, basis = 1e-4, np.eye(6) * 1e-4
     H = np.array([[(V(a + b) - V(a - b) - V(b - a) + V(-a - b)) / (4 * h * h) for b in basis] for a in basis])
     eigenvalues = np.linalg.eigvalsh(H)
-    assert eigenvalues[0] == pytest.approx(0.019628, rel=1e-2)
-    assert eigenvalues[-1] == pytest.approx(21.471, rel=1e-2)
+    # central differences with h = 1e-4: truncation ~h^2 (the eigenvalues move by 8e-4 relative
+    # from h = 1e-3 to 1e-4), so 1e-4 relative holds the pinned digits
+    assert eigenvalues[0] == pytest.approx(0.0196277, rel=1e-4)
+    assert eigenvalues[-1] == pytest.approx(21.47076, rel=1e-4)
     for interaction in ("desired", "mean"):
         mm, deg = run(TILT_START, TILT_TARGET, interaction, 30.0).final_pose_error()
         assert mm < 1e-2 and deg < 1e-2
@@ -295,6 +298,8 @@ def test_stereo_physical_2_on_the_kinematic_arm():
     assert result.frame_features.shape[1] == 9  # [u_l, u_r, v] of three markers
     assert e[0] == pytest.approx(9.148155e-4, rel=1e-6)  # [m on the sensor]
     assert e[-1] / e[0] == pytest.approx(0.0073217, rel=1e-3)
+    # against the ideal decoupled exponential only to 10 %: the arm's 1 deg unseen offset and the
+    # nonlinear image map make the decay differ from e^(-lambda t) (the pinned value above is exact)
     assert e[-1] / e[0] == pytest.approx(math.exp(-LAMBDA * 10.0), rel=0.1)
 
 

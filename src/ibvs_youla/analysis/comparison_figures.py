@@ -16,6 +16,7 @@ import numpy as np
 
 from .compare import CONVERGED_DEG, CONVERGED_MM
 from .metrics import pose_error_series_mm_deg
+from .plots import draw_marker_trajectories
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
@@ -73,14 +74,7 @@ def plot_image_trajectories(comparison: Comparison, max_columns: int = 4) -> Fig
     w, h = 1e3 * camera.sensor_width, 1e3 * camera.sensor_height
     for ax, (name, result, k, lens) in zip(axes.flat, panels, strict=False):
         p, target = scale * result.features, scale * result.feature_target
-        u = [per * i + k for i in range(n)]
-        v = [per * i + per - 1 for i in range(n)]
-        for i in range(n):
-            ax.plot(p[:, u[i]], p[:, v[i]], lw=1.2, color=f"C{i}", label=f"marker {i + 1}")
-        for i in range(n):
-            ax.plot(p[0, u[i]], p[0, v[i]], "o", color=f"C{i}", ms=5, mfc="none")
-        for i in range(n):
-            ax.plot(target[u[i]], target[v[i]], "x", color=f"C{i}", ms=8, mew=2)
+        draw_marker_trajectories(ax, p, target, per, k)
         if not camera.unbounded_view:
             ax.add_patch(Rectangle((-w / 2, -h / 2), w, h, fill=False, lw=1.0, color="0.3"))
         ax.set_aspect("equal", adjustable="datalim")

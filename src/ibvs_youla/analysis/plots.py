@@ -50,6 +50,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = [
     "RESULT_FIGURES",
+    "draw_marker_trajectories",
     "plot_design",
     "plot_feature_error_norm",
     "plot_image_coordinates",
@@ -229,6 +230,24 @@ def plot_feature_error_norm(
     return fig
 
 
+def draw_marker_trajectories(ax: Any, features: Any, target: Any, per_point: int, lens: int) -> None:
+    """One lens's image paths on ``ax``: n lines, then n start circles, then n target crosses.
+
+    ``features`` (N, per_point n) and ``target`` (per_point n,) are point-major; ``lens`` is the
+    column of u within a point (0 left / only lens, 1 right); v is the last column of a point.
+    Line i, n + i and 2n + i belong to marker i (tests read them in that order).
+    """
+    n = features.shape[1] // per_point
+    u = [per_point * i + lens for i in range(n)]  # u_l, u_r or u of each marker
+    v = [per_point * i + per_point - 1 for i in range(n)]
+    for i in range(n):
+        ax.plot(features[:, u[i]], features[:, v[i]], lw=1.4, color=f"C{i}", label=f"marker {i + 1}")
+    for i in range(n):
+        ax.plot(features[0, u[i]], features[0, v[i]], "o", color=f"C{i}", ms=6, mfc="none")
+    for i in range(n):
+        ax.plot(target[u[i]], target[v[i]], "x", color=f"C{i}", ms=9, mew=2)
+
+
 def plot_image_plane(result: SimulationResult, camera: StereoCamera | PinholeCamera | None = None) -> Figure:
     """Marker trajectories in the image of each lens (v down), with the sensor outline.
 
@@ -253,7 +272,7 @@ def plot_image_plane(result: SimulationResult, camera: StereoCamera | PinholeCam
     from matplotlib.patches import Rectangle
 
     layout = _layout(result, camera)
-    n, per, scale, unit = layout.n_points, layout.per_point, layout.scale, layout.unit
+    per, scale, unit = layout.per_point, layout.scale, layout.unit
     w, h = MM * layout.camera.sensor_width, MM * layout.camera.sensor_height
     lenses = ("left", "right") if per == 3 else ("",)
     size = (11.0, 5.0) if per == 3 else (6.5, 5.0)
@@ -261,14 +280,7 @@ def plot_image_plane(result: SimulationResult, camera: StereoCamera | PinholeCam
     p, target = scale * result.features, scale * result.feature_target
     u_name, v_name = ("x", "y") if layout.normalized else ("u", "v")
     for col, (ax, lens) in enumerate(zip(axes[0], lenses, strict=True)):
-        u = [per * i + col for i in range(n)]  # u_l, u_r or u of each marker
-        v = [per * i + per - 1 for i in range(n)]
-        for i in range(n):
-            ax.plot(p[:, u[i]], p[:, v[i]], lw=1.4, color=f"C{i}", label=f"marker {i + 1}")
-        for i in range(n):
-            ax.plot(p[0, u[i]], p[0, v[i]], "o", color=f"C{i}", ms=6, mfc="none")
-        for i in range(n):
-            ax.plot(target[u[i]], target[v[i]], "x", color=f"C{i}", ms=9, mew=2)
+        draw_marker_trajectories(ax, p, target, per, col)
         if not layout.camera.unbounded_view:  # its sensor extent is nominal
             ax.add_patch(
                 Rectangle((-w / 2, -h / 2), w, h, fill=False, ls="-", lw=1.2, color="0.3", label="sensor")

@@ -124,6 +124,15 @@ def generate_cases(family: str, n: int, seed: int, *, difficulty: float = 1.0) -
     return tuple(_free_case(family, k, np.random.default_rng(s), difficulty) for k, s in enumerate(streams))
 
 
+def _undrawable(family: str, index: int, difficulty: float) -> InvalidParameterError:
+    """The error of a case the rules rejected :data:`MAX_DRAWS` times."""
+    return InvalidParameterError(
+        "difficulty",
+        difficulty,
+        f"a difficulty at which {family} case {index} can be drawn in {MAX_DRAWS} tries",
+    )
+
+
 # ----------------------------------------------------------------------------- arm families
 def _joint_box(arm: Any) -> tuple[np.ndarray, np.ndarray]:
     lo, hi = np.asarray(arm.q_min, dtype=float), np.asarray(arm.q_max, dtype=float)
@@ -185,11 +194,7 @@ def _arm_case(
             "virtual_points": virtual,
         }
         return Case(family, index, scenario, _difficulty(T_start, T_target), draw)
-    raise InvalidParameterError(
-        "difficulty",
-        difficulty,
-        f"a difficulty at which {family} case {index} can be drawn in {MAX_DRAWS} tries",
-    )
+    raise _undrawable(family, index, difficulty)
 
 
 # ----------------------------------------------------------------------------- free camera
@@ -222,8 +227,4 @@ def _free_case(family: str, index: int, rng: np.random.Generator, difficulty: fl
             "virtual_points": False,
         }
         return Case(family, index, scenario, _difficulty(T_start, T_target), draw)
-    raise InvalidParameterError(
-        "difficulty",
-        difficulty,
-        f"a difficulty at which {family} case {index} can be drawn in {MAX_DRAWS} tries",
-    )
+    raise _undrawable(family, index, difficulty)

@@ -26,8 +26,9 @@ from distributed import Client
 
 from ibvs_youla import cli, controllers
 from ibvs_youla.campaign import runner
+from ibvs_youla.campaign.definition import CampaignDefinition
 from ibvs_youla.campaign.metrics import COLUMNS
-from ibvs_youla.campaign.runner import CampaignDefinition, run_campaign
+from ibvs_youla.campaign.runner import run_campaign
 from ibvs_youla.campaign.storage import RowWriter, read_rows, stored_keys
 from ibvs_youla.exceptions import InvalidParameterError
 from ibvs_youla.simulation.results import SimulationResult
@@ -303,6 +304,32 @@ def test_a_killed_client_resumes_with_the_same_command(tmp_path, reference, proc
     second = subprocess.run(command, capture_output=True, text=True, timeout=120, check=False)
     assert second.returncode == 0, second.stderr
     assert f"{stored_at_kill} stored before, {RUNS - stored_at_kill} run on 2 local workers" in second.stdout
+    assert_same_rows(read_rows(out), reference[1])
+
+
+def test_a_terminated_client_flushes_its_rows_and_resumes(tmp_path, reference, processes):
+    """SIGTERM (a batch system's stop) acts as Ctrl-C: rows returned before it are written, exit 130."""
+    out = tmp_path / "terminated"
+    command = [sys.executable, "-c", PYTHON_CLI, *CLI_ARGS, "--out", str(out), "--workers", "0"]
+    command[command.index("--batch-rows") + 1] = "1000"  # nothing is written before the signal
+    first = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    processes.append(first)
+    _wait_for(
+        lambda: (out / "campaign.json").is_file() or first.poll() is not None, 60, "the campaign to start"
+    )
+    time.sleep(1.0)  # some runs finish (~0.05 s each), none is written yet
+    assert _stored(out) == 0
+    first.send_signal(signal.SIGTERM)
+    _, stderr = first.communicate(timeout=30)
+    stored = _stored(out)
+    assert first.returncode == 130, stderr
+    assert 0 < stored < RUNS
+    assert stderr.strip() == (
+        f"ibvs-youla: interrupted: {stored} of {RUNS} runs stored in {out}; rerun the same command to resume"
+    )
+    second = subprocess.run(command, capture_output=True, text=True, timeout=120, check=False)
+    assert second.returncode == 0, second.stderr
+    assert f"{stored} stored before, {RUNS - stored} run on this process" in second.stdout
     assert_same_rows(read_rows(out), reference[1])
 
 

@@ -1,14 +1,6 @@
 """Run a campaign: every method on the same seeded cases, on local processes or a Dask cluster.
 
-:class:`CampaignDefinition` is the campaign as data (what ``DIR/campaign.json`` stores), with
-defaults per family: the arm families run on the dynamic arm with the ZED 2 stereo camera,
-``SimulationSettings()`` (camera at 100 Hz) and 20 s; the free-flying families on the free
-camera with the normalized camera (F = 1, no field-of-view limit), 25 Hz and 30 s (ViSP's
-tutorial-ibvs-4pts settings). A free family has no joint configurations, so it runs on the
-free camera only; an arm family's cases are drawn by their joint limits and singularities,
-so they run on an arm plant only (``kinematic`` for an ideal inner loop); the paper's
-controllers (``fb``, ``ff+fb``) command joint positions, so they need an arm plant.
-
+The campaign is data (:class:`~.definition.CampaignDefinition`, with the defaults per family).
 :func:`run_campaign` builds the specs (:func:`~.cases.generate_cases` then
 :func:`~.spec.specs_for`), skips the keys already stored in ``out_dir``
 (:func:`~.storage.stored_keys`), and runs the rest:
@@ -26,8 +18,9 @@ down ``distributed.scheduler.allowed-failures`` (3) workers is stored as an ``"e
 (``KilledWorker``). A task that raised (``run_spec`` does not, so the cause is the worker's
 environment, e.g. this package missing) is not stored: the campaign goes on, and the summary
 counts it so that a rerun retries it. Rows are flushed by :class:`~.storage.RowWriter` every
-``batch_rows`` rows or ``batch_seconds`` seconds, and on Ctrl-C; rerunning the same campaign
-resumes it.
+``batch_rows`` rows or ``batch_seconds`` seconds, and on Ctrl-C or SIGTERM (which the client
+turns into ``KeyboardInterrupt`` while it runs, so a batch system's stop request loses no
+returned row); rerunning the same campaign resumes it.
 """
 
 from __future__ import annotations
@@ -40,15 +33,14 @@ import sys
 import threading
 import time
 from collections import Counter
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .._validation import one_of, positive
 from ..exceptions import IbvsYoulaError, InvalidParameterError
-from .cases import ARM_FAMILIES, FAMILIES
-from .spec import CAMERA_KINDS, ExperimentSpec, specs_for
+from .definition import FAMILY_DEFAULTS, CampaignDefinition
+from .spec import ExperimentSpec
 
 __all__ = [
     "FAMILY_DEFAULTS",
@@ -59,21 +51,6 @@ __all__ = [
     "run_campaign",
 ]
 
-_ARM_DEFAULTS: dict[str, Any] = {
-    "plant": "dynamic",
-    "camera": {"kind": "stereo"},
-    "duration": 20.0,
-    "settings": {},
-}
-_FREE_DEFAULTS: dict[str, Any] = {
-    "plant": "free-camera",
-    "camera": {"kind": "normalized"},
-    "duration": 30.0,
-    "settings": {"joint_rate_hz": 25.0, "camera_rate_hz": 25.0},
-}
-FAMILY_DEFAULTS: dict[str, dict[str, Any]] = {
-    family: _ARM_DEFAULTS if family in ARM_FAMILIES else _FREE_DEFAULTS for family in FAMILIES
-}
 CONNECT_TIMEOUT_S = 10.0  # to reach an existing scheduler [s]
 TASKS_PER_THREAD = 4  # tasks in flight per worker thread (at least MIN_WINDOW in all)
 MIN_WINDOW = 32
@@ -95,139 +72,6 @@ def default_workers() -> int:
     """Cores this process may use (its CPU affinity where the system tells it)."""
     affinity = getattr(os, "sched_getaffinity", None)
     return len(affinity(0)) if affinity is not None else max(1, os.cpu_count() or 1)
-
-
-@dataclass(frozen=True)
-class CampaignDefinition:
-    """A campaign as data: ``cases`` cases of ``family`` from ``seed``, each run by every controller.
-
-    Fields left None take the family's defaults (module docstring, :data:`FAMILY_DEFAULTS`).
-
-    Attributes:
-        family: A case family (:data:`~.cases.FAMILIES`).
-        cases: Number of cases (>= 1).
-        controllers: Registered controller names, each once.
-        seed: The campaign's seed (an integer >= 0).
-        plant: ``"dynamic"``, ``"kinematic"`` or ``"free-camera"``.
-        camera: ``{"kind": "stereo" | "mono" | "normalized", ...}``, or just the kind.
-        duration: Simulated time per run [s].
-        settings: Keyword arguments of ``SimulationSettings``.
-        difficulty: The generator's difficulty knob (> 0; 1 is the stated range).
-        controller_params: Controller name -> keyword parameters of ``controllers.make``.
-
-    Raises:
-        InvalidParameterError: any of the above out of range, an unknown controller or
-            parameter, a family on a plant it cannot run on (module docstring), settings that
-            ``SimulationSettings`` rejects.
-    """
-
-    family: str
-    cases: int
-    controllers: tuple[str, ...]
-    seed: int = 0
-    plant: str | None = None
-    camera: Mapping[str, Any] | str | None = None
-    duration: float | None = None
-    settings: Mapping[str, Any] | None = None
-    difficulty: float = 1.0
-    controller_params: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        from .. import controllers as registry
-        from ..simulation.free_camera import FreeCameraPlant
-        from ..simulation.settings import SimulationSettings
-        from ..simulation.simulate import PLANTS
-
-        def put(name: str, value: Any) -> None:
-            object.__setattr__(self, name, value)
-
-        one_of(self.family, "family", FAMILIES)
-        defaults = FAMILY_DEFAULTS[self.family]
-        for name, low in (("cases", 1), ("seed", 0)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise InvalidParameterError(name, value, f"an integer >= {low}")
-        names = (self.controllers,) if isinstance(self.controllers, str) else tuple(self.controllers)
-        unknown = [n for n in names if n not in registry.names()]
-        if not names or unknown or len(set(names)) != len(names):
-            raise InvalidParameterError(
-                "controllers", list(names), "registered names, each once: " + ", ".join(registry.names())
-            )
-        put("controllers", names)
-        put("plant", one_of(self.plant or defaults["plant"], "plant", PLANTS))
-        camera = self.camera if self.camera is not None else defaults["camera"]
-        camera = {"kind": camera} if isinstance(camera, str) else dict(camera)
-        one_of(camera.get("kind"), "camera.kind", CAMERA_KINDS)
-        put("camera", camera)
-        duration = defaults["duration"] if self.duration is None else self.duration
-        put("duration", positive(duration, "duration", unit="s"))
-        settings = dict(defaults["settings"] if self.settings is None else self.settings)
-        SimulationSettings(**settings)  # raises on a bad key or value
-        put("settings", settings)
-        put("difficulty", positive(self.difficulty, "difficulty"))
-        params = {str(k): dict(v) for k, v in self.controller_params.items()}
-        stray = sorted(set(params) - set(names))
-        if stray:
-            raise InvalidParameterError("controller_params", stray, f"names among {', '.join(names)}")
-        put("controller_params", params)
-        arm_family = self.family in ARM_FAMILIES
-        if arm_family == (self.plant == "free-camera"):
-            valid = (
-                "'dynamic' or 'kinematic' for the arm" if arm_family else "'free-camera' for the free-flying"
-            )
-            raise InvalidParameterError("plant", self.plant, f"{valid} family {self.family!r}")
-        for name in names:
-            kind = registry.make(name, **params.get(name, {})).command_type  # raises on unknown parameters
-            if self.plant == "free-camera" and kind not in FreeCameraPlant.accepts:
-                raise InvalidParameterError(
-                    "controllers",
-                    name,
-                    f"controllers that command a camera twist on the free camera ({name!r} commands "
-                    f"{kind.value}: it needs an arm family and plant)",
-                )
-
-    @property
-    def runs(self) -> int:
-        """Cases x controllers."""
-        return self.cases * len(self.controllers)
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain data (``DIR/campaign.json`` without its ``format``)."""
-        return {
-            "family": self.family,
-            "cases": self.cases,
-            "controllers": list(self.controllers),
-            "seed": self.seed,
-            "plant": self.plant,
-            "camera": dict(self.camera),  # type: ignore[arg-type]
-            "duration": self.duration,
-            "settings": dict(self.settings or {}),
-            "difficulty": self.difficulty,
-            "controller_params": {k: dict(v) for k, v in self.controller_params.items()},
-        }
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> CampaignDefinition:
-        """The definition of :meth:`to_dict` (a ``format`` key is ignored)."""
-        fields_ = {k: v for k, v in data.items() if k != "format"}
-        fields_["controllers"] = tuple(fields_.get("controllers", ()))
-        return cls(**fields_)
-
-    def specs(self) -> list[ExperimentSpec]:
-        """One spec per (case, controller), cases outer."""
-        from .cases import generate_cases
-
-        cases = generate_cases(self.family, self.cases, self.seed, difficulty=self.difficulty)
-        return specs_for(
-            cases,
-            self.controllers,
-            seed=self.seed,
-            plant=self.plant,  # type: ignore[arg-type]
-            camera=self.camera,  # type: ignore[arg-type]
-            duration=self.duration,  # type: ignore[arg-type]
-            settings=self.settings,
-            controller_params=self.controller_params,
-        )
 
 
 @dataclass
@@ -320,33 +164,34 @@ def run_campaign(
     if summary.stored_before == len(specs):
         summary.wall_s = time.perf_counter() - t_start
         return summary
-    client, cluster = (None, None) if workers == 0 else _connect(scheduler, workers)
-    summary.workers = 0 if client is None else sum(_nthreads(client).values())
-    try:
-        storage.create_folder(path, record)
-        with storage.client_lock(path):
-            done = storage.stored_keys(path)  # again, under the lock
-            pending = [s for s in specs if s.key not in done]
-            summary.stored_before = len(specs) - len(pending)
-            summary.other_rows = len(done - {s.key for s in specs})
-            writer = storage.RowWriter(path, batch_rows, batch_seconds)
-            bar = _progress_bar(len(specs), summary.stored_before, progress)
-            t_run = time.perf_counter()
-            try:
-                if client is None:
-                    _run_here(pending, writer, summary, bar, path, series)
-                else:
-                    _run_dask(client, pending, writer, summary, bar, path, series)
-            finally:
-                writer.flush()
-                summary.ran = writer.written
-                summary.run_s = time.perf_counter() - t_run
-                bar.close()
-    finally:
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()
+    with _sigterm_interrupts():  # SIGTERM flushes the returned rows, as Ctrl-C does
+        client, cluster = (None, None) if workers == 0 else _connect(scheduler, workers)
+        summary.workers = 0 if client is None else sum(_nthreads(client).values())
+        try:
+            storage.create_folder(path, record)
+            with storage.client_lock(path):
+                done = storage.stored_keys(path)  # again, under the lock
+                pending = [s for s in specs if s.key not in done]
+                summary.stored_before = len(specs) - len(pending)
+                summary.other_rows = len(done - {s.key for s in specs})
+                writer = storage.RowWriter(path, batch_rows, batch_seconds)
+                bar = _progress_bar(len(specs), summary.stored_before, progress)
+                t_run = time.perf_counter()
+                try:
+                    if client is None:
+                        _run_here(pending, writer, summary, bar, path, series)
+                    else:
+                        _run_dask(client, pending, writer, summary, bar, path, series)
+                finally:
+                    writer.flush()
+                    summary.ran = writer.written
+                    summary.run_s = time.perf_counter() - t_run
+                    bar.close()
+        finally:
+            if client is not None:
+                client.close()
+            if cluster is not None:
+                cluster.close()
     summary.wall_s = time.perf_counter() - t_start
     return summary
 
@@ -371,6 +216,27 @@ def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any]:
         return Client(scheduler, timeout=CONNECT_TIMEOUT_S), None
     except (OSError, TimeoutError, ValueError) as err:
         raise SchedulerError(scheduler, f"cannot connect ({' '.join(str(err).split())})") from None
+
+
+@contextlib.contextmanager
+def _sigterm_interrupts() -> Iterator[None]:
+    """Turn SIGTERM into ``KeyboardInterrupt`` (as Ctrl-C) while a campaign runs in the main thread.
+
+    A batch system or ``kill`` stops a job with SIGTERM, whose default action ends the process
+    without running ``finally``: the rows returned but not yet written would be lost.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 @contextlib.contextmanager

@@ -68,7 +68,8 @@ def scheduler_address(text: str) -> str:
 def run(args: argparse.Namespace, extra: list[str]) -> int:
     """Run the campaign, print what was stored; return 0, or 1 when runs could not be stored."""
     from .. import controllers
-    from ..campaign.runner import FAMILY_DEFAULTS, CampaignDefinition, run_campaign
+    from ..campaign.definition import FAMILY_DEFAULTS, CampaignDefinition
+    from ..campaign.runner import run_campaign
     from ..campaign.storage import read_rows
     from ..exceptions import InvalidParameterError
 
@@ -97,15 +98,24 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
         )
     except InvalidParameterError as err:
         raise UsageError(f"campaign: {one_line(err)}") from None
-    summary = run_campaign(
-        definition,
-        args.out,
-        scheduler=args.scheduler,
-        workers=args.workers,
-        progress=not args.no_progress,
-        series=args.series,
-        batch_rows=args.batch_rows,
-    )
+    try:
+        summary = run_campaign(
+            definition,
+            args.out,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            progress=not args.no_progress,
+            series=args.series,
+            batch_rows=args.batch_rows,
+        )
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the returned rows were flushed
+        stored = len(read_rows(args.out)) if (args.out / "rows").is_dir() else 0
+        print(
+            f"{PROG}: interrupted: {stored} of {definition.runs} runs stored in {args.out}; "
+            "rerun the same command to resume",
+            file=sys.stderr,
+        )
+        return 130
     d = definition
     where = f"scheduler {args.scheduler}" if args.scheduler else f"{summary.workers} local workers"
     if args.workers == 0:

@@ -1,0 +1,173 @@
+"""A campaign as data: the family, cases, methods, plant, camera and settings, with defaults per family.
+
+:class:`CampaignDefinition` is what ``DIR/campaign.json`` stores. The arm families run on the
+dynamic arm with the ZED 2 stereo camera, ``SimulationSettings()`` (camera at 100 Hz) and
+20 s; the free-flying families on the free camera with the normalized camera (F = 1, no
+field-of-view limit), 25 Hz and 30 s (ViSP's tutorial-ibvs-4pts settings). A free family has
+no joint configurations, so it runs on the free camera only; an arm family's cases are drawn
+by their joint limits and singularities, so they run on an arm plant only (``kinematic`` for
+an ideal inner loop); the paper's controllers (``fb``, ``ff+fb``) command joint positions,
+so they need an arm plant.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from .._validation import one_of, positive
+from ..exceptions import InvalidParameterError
+from .cases import ARM_FAMILIES, FAMILIES
+from .spec import CAMERA_KINDS, ExperimentSpec, specs_for
+
+__all__ = ["FAMILY_DEFAULTS", "CampaignDefinition"]
+
+_ARM_DEFAULTS: dict[str, Any] = {
+    "plant": "dynamic",
+    "camera": {"kind": "stereo"},
+    "duration": 20.0,
+    "settings": {},
+}
+_FREE_DEFAULTS: dict[str, Any] = {
+    "plant": "free-camera",
+    "camera": {"kind": "normalized"},
+    "duration": 30.0,
+    "settings": {"joint_rate_hz": 25.0, "camera_rate_hz": 25.0},
+}
+FAMILY_DEFAULTS: dict[str, dict[str, Any]] = {
+    family: _ARM_DEFAULTS if family in ARM_FAMILIES else _FREE_DEFAULTS for family in FAMILIES
+}
+
+
+@dataclass(frozen=True)
+class CampaignDefinition:
+    """A campaign as data: ``cases`` cases of ``family`` from ``seed``, each run by every controller.
+
+    Fields left None take the family's defaults (module docstring, :data:`FAMILY_DEFAULTS`).
+
+    Attributes:
+        family: A case family (:data:`~.cases.FAMILIES`).
+        cases: Number of cases (>= 1).
+        controllers: Registered controller names, each once.
+        seed: The campaign's seed (an integer >= 0).
+        plant: ``"dynamic"``, ``"kinematic"`` or ``"free-camera"``.
+        camera: ``{"kind": "stereo" | "mono" | "normalized", ...}``, or just the kind.
+        duration: Simulated time per run [s].
+        settings: Keyword arguments of ``SimulationSettings``.
+        difficulty: The generator's difficulty knob (> 0; 1 is the stated range).
+        controller_params: Controller name -> keyword parameters of ``controllers.make``.
+
+    Raises:
+        InvalidParameterError: any of the above out of range, an unknown controller or
+            parameter, a family on a plant it cannot run on (module docstring), settings that
+            ``SimulationSettings`` rejects.
+    """
+
+    family: str
+    cases: int
+    controllers: tuple[str, ...]
+    seed: int = 0
+    plant: str | None = None
+    camera: Mapping[str, Any] | str | None = None
+    duration: float | None = None
+    settings: Mapping[str, Any] | None = None
+    difficulty: float = 1.0
+    controller_params: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        from .. import controllers as registry
+        from ..simulation.free_camera import FreeCameraPlant
+        from ..simulation.settings import SimulationSettings
+        from ..simulation.simulate import PLANTS
+
+        def put(name: str, value: Any) -> None:
+            object.__setattr__(self, name, value)
+
+        one_of(self.family, "family", FAMILIES)
+        defaults = FAMILY_DEFAULTS[self.family]
+        for name, low in (("cases", 1), ("seed", 0)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise InvalidParameterError(name, value, f"an integer >= {low}")
+        names = (self.controllers,) if isinstance(self.controllers, str) else tuple(self.controllers)
+        unknown = [n for n in names if n not in registry.names()]
+        if not names or unknown or len(set(names)) != len(names):
+            raise InvalidParameterError(
+                "controllers", list(names), "registered names, each once: " + ", ".join(registry.names())
+            )
+        put("controllers", names)
+        put("plant", one_of(self.plant or defaults["plant"], "plant", PLANTS))
+        camera = self.camera if self.camera is not None else defaults["camera"]
+        camera = {"kind": camera} if isinstance(camera, str) else dict(camera)
+        one_of(camera.get("kind"), "camera.kind", CAMERA_KINDS)
+        put("camera", camera)
+        duration = defaults["duration"] if self.duration is None else self.duration
+        put("duration", positive(duration, "duration", unit="s"))
+        settings = dict(defaults["settings"] if self.settings is None else self.settings)
+        SimulationSettings(**settings)  # raises on a bad key or value
+        put("settings", settings)
+        put("difficulty", positive(self.difficulty, "difficulty"))
+        params = {str(k): dict(v) for k, v in self.controller_params.items()}
+        stray = sorted(set(params) - set(names))
+        if stray:
+            raise InvalidParameterError("controller_params", stray, f"names among {', '.join(names)}")
+        put("controller_params", params)
+        arm_family = self.family in ARM_FAMILIES
+        if arm_family == (self.plant == "free-camera"):
+            valid = (
+                "'dynamic' or 'kinematic' for the arm" if arm_family else "'free-camera' for the free-flying"
+            )
+            raise InvalidParameterError("plant", self.plant, f"{valid} family {self.family!r}")
+        for name in names:
+            kind = registry.make(name, **params.get(name, {})).command_type  # raises on unknown parameters
+            if self.plant == "free-camera" and kind not in FreeCameraPlant.accepts:
+                raise InvalidParameterError(
+                    "controllers",
+                    name,
+                    f"controllers that command a camera twist on the free camera ({name!r} commands "
+                    f"{kind.value}: it needs an arm family and plant)",
+                )
+
+    @property
+    def runs(self) -> int:
+        """Cases x controllers."""
+        return self.cases * len(self.controllers)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data (``DIR/campaign.json`` without its ``format``)."""
+        return {
+            "family": self.family,
+            "cases": self.cases,
+            "controllers": list(self.controllers),
+            "seed": self.seed,
+            "plant": self.plant,
+            "camera": dict(self.camera),  # type: ignore[arg-type]
+            "duration": self.duration,
+            "settings": dict(self.settings or {}),
+            "difficulty": self.difficulty,
+            "controller_params": {k: dict(v) for k, v in self.controller_params.items()},
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> CampaignDefinition:
+        """The definition of :meth:`to_dict` (a ``format`` key is ignored)."""
+        fields_ = {k: v for k, v in data.items() if k != "format"}
+        fields_["controllers"] = tuple(fields_.get("controllers", ()))
+        return cls(**fields_)
+
+    def specs(self) -> list[ExperimentSpec]:
+        """One spec per (case, controller), cases outer."""
+        from .cases import generate_cases
+
+        cases = generate_cases(self.family, self.cases, self.seed, difficulty=self.difficulty)
+        return specs_for(
+            cases,
+            self.controllers,
+            seed=self.seed,
+            plant=self.plant,  # type: ignore[arg-type]
+            camera=self.camera,  # type: ignore[arg-type]
+            duration=self.duration,  # type: ignore[arg-type]
+            settings=self.settings,
+            controller_params=self.controller_params,
+        )

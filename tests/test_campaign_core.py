@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from ibvs_youla.campaign.cases import FAMILIES, MAX_JOINT_STEP_DEG, generate_cases
+from ibvs_youla.campaign.definition import CampaignDefinition
 from ibvs_youla.campaign.metrics import COLUMNS, OUTCOMES
 from ibvs_youla.campaign.run import run_spec
-from ibvs_youla.campaign.spec import ExperimentSpec, specs_for
+from ibvs_youla.campaign.spec import ExperimentSpec, method_label, parse_method, specs_for, split_methods
 from ibvs_youla.exceptions import InvalidParameterError
 
 FREE_25HZ = {"joint_rate_hz": 25.0, "camera_rate_hz": 25.0}
@@ -63,6 +64,7 @@ def test_a_spec_is_data_with_a_stable_key():
     )
     assert ExperimentSpec.from_json(spec.to_json()) == spec and pickle.loads(pickle.dumps(spec)) == spec
     assert spec.key == ExperimentSpec.from_json(spec.to_json()).key and len(spec.key) == 20
+    assert spec.key == "c85851d5725d4d8c06a5"  # stored campaigns resume by it: it must never change
     other = ExperimentSpec(**{**spec.to_dict(), "duration": 6.0})
     assert other.key != spec.key
     with pytest.raises(InvalidParameterError, match="seed"):
@@ -85,6 +87,7 @@ def test_rows_have_the_schema_and_the_outcomes():
         assert set(row) == set(COLUMNS) and row["outcome"] in OUTCOMES
         assert all(isinstance(row[c], kind) for c, kind in COLUMNS.items())
         assert row["outcome"] == "reached" and row["time_to_reach_s"] < 20.0
+        assert math.isnan(row["final_jacobian_sigma"])  # no arm
     assert [r["controller"] for r in rows] == ["ibvs-current", "pbvs", "ibvs-current", "pbvs"]
     assert rows[1]["path_ratio"] == pytest.approx(1.0, abs=1e-3)  # PBVS: a straight line
 
@@ -103,3 +106,71 @@ def test_a_run_that_raises_is_a_row():
     row = run_spec(spec.to_json())
     assert row["outcome"] == "error" and "gain" in row["error"] and math.isnan(row["final_position_mm"])
     assert set(row) == set(COLUMNS)
+
+
+@pytest.mark.parametrize(
+    ("label", "name", "params"),
+    [
+        ("fb", "fb", {}),
+        ("fb[adaptive=false]", "fb", {"adaptive": False}),
+        ("pbvs[gain=0.5,estimator=sqpnp]", "pbvs", {"estimator": "sqpnp", "gain": 0.5}),
+        (
+            'mpc-ibvs[horizon=5,name="1",weights=[1,2],x=null]',
+            "mpc-ibvs",
+            {"horizon": 5, "name": "1", "weights": [1, 2], "x": None},
+        ),
+        ("  2.5d [ gain = 2 ] ", "2.5d", {"gain": 2}),
+    ],
+)
+def test_method_labels_read_back(label, name, params):
+    assert parse_method(label) == (name, params)
+    assert parse_method(method_label(name, params)) == (name, params)  # the canonical label reads back
+    assert method_label("fb", {"adaptive": False, "a": 1}) == "fb[a=1,adaptive=false]"  # sorted keys
+
+
+@pytest.mark.parametrize(
+    "label", ["", "fb[", "fb[adaptive]", "fb[adaptive=false,adaptive=true]", "fb[1x=2]", "fb[x=a b]", 3]
+)
+def test_malformed_method_labels_are_refused(label):
+    with pytest.raises(InvalidParameterError, match="method"):
+        parse_method(label)
+
+
+def test_one_controller_runs_as_two_methods_with_the_keys_of_its_parameters():
+    assert split_methods("fb,fb[adaptive=false,gain=2], ff+fb") == [
+        "fb",
+        "fb[adaptive=false,gain=2]",
+        "ff+fb",
+    ]
+    definition = CampaignDefinition(
+        "arm-physical", 1, ("fb", "fb[adaptive=false]"), seed=1, plant="kinematic"
+    )
+    adaptive, fixed = definition.specs()
+    assert (adaptive.controller, adaptive.controller_params) == ("fb", {})
+    assert (fixed.controller, fixed.controller_params, fixed.method) == (
+        "fb",
+        {"adaptive": False},
+        "fb[adaptive=false]",
+    )
+    # the label's spec is the spec the same parameters gave through controller_params: the same key
+    (old,) = CampaignDefinition(
+        "arm-physical", 1, ("fb",), seed=1, plant="kinematic", controller_params={"fb": {"adaptive": False}}
+    ).specs()
+    assert old.key == fixed.key != adaptive.key
+    with pytest.raises(InvalidParameterError, match="wobble"):
+        CampaignDefinition("arm-physical", 1, ("fb[wobble=1]",), plant="kinematic")
+    with pytest.raises(InvalidParameterError, match="each once"):
+        CampaignDefinition("arm-physical", 1, ("fb[adaptive=false]", "fb[adaptive=false]"), plant="kinematic")
+    with pytest.raises(InvalidParameterError, match=r"'nope\[adaptive=false\]'"):
+        CampaignDefinition("arm-physical", 1, ("nope[adaptive=false]",), plant="kinematic")
+
+
+def test_a_stall_at_an_arm_singularity_is_not_called_a_local_minimum():
+    """arm-physical case 24 (seed 1): fb turns joint 1 by 191 deg and stalls 65 mm short of the target
+    with the camera Jacobian singular (smallest singular value 1.5e-7): the arm cannot move the camera,
+    the image law has no local minimum there. Before the outcome existed this row read local_minimum."""
+    spec = CampaignDefinition("arm-physical", 25, ("fb",), seed=1, plant="kinematic").specs()[24]
+    row = run_spec(spec)
+    assert row["outcome"] == "singularity" and row["final_jacobian_sigma"] < 1e-5
+    assert row["final_position_mm"] == pytest.approx(64.80, abs=0.05)
+    assert row["final_feature_error"] > 1e-5  # the image error stayed (normalized units)

@@ -4,6 +4,7 @@ the start poses in closed form, the figures' data, and the command's files and e
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 
@@ -30,10 +31,12 @@ FREE = {
 
 @pytest.fixture(scope="module")
 def rows():
-    """Four free-planar cases x (ibvs-current, pbvs), and one pbvs run that raises (a negative gain)."""
+    """Four free-planar cases x (ibvs-current, pbvs), and one pbvs run that raises (collinear markers)."""
     cases = generate_cases("free-planar", 4, 3)
     specs = specs_for(cases, ["ibvs-current", "pbvs"], seed=3, **FREE)
-    specs += specs_for(cases[:1], ["pbvs"], seed=3, controller_params={"pbvs": {"gain": -1.0}}, **FREE)
+    (bad,) = specs_for(cases[:1], ["pbvs"], seed=3, **FREE)
+    on_a_line = [[-0.1, 0.0, 0.0], [0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.2, 0.0, 0.0]]  # [m]
+    specs.append(dataclasses.replace(bad, scenario={**bad.scenario, "markers_O": on_a_line}))
     return pd.DataFrame([run_spec(s) for s in specs])
 
 
@@ -231,3 +234,13 @@ def test_command_refuses_bad_axes(capsys):
     with pytest.raises(SystemExit) as exit_:
         run_command(["somewhere", "--axes", "twist,yaw"])
     assert exit_.value.code == 2 and "valid: two different names" in capsys.readouterr().err
+
+
+def test_rows_stored_before_a_column_existed_read_it_as_missing(rows, tmp_path):
+    old = rows.drop(columns=["final_jacobian_sigma"])  # a part written by the previous version
+    folder = write_rows(tmp_path / "old", old)
+    again = report.read_rows(folder)
+    assert list(again.columns) == list(COLUMNS) and again["final_jacobian_sigma"].isna().all()
+    assert again.drop(columns=["final_jacobian_sigma"]).equals(
+        old[list(again.columns.drop("final_jacobian_sigma"))]
+    )

@@ -341,6 +341,12 @@ FREE = ["campaign", "--family", "free-planar", "--cases", "2", "--duration", "1"
     ("argv", "fragments"),
     [
         ((*FREE, "--controllers", "pbvs,pid"), ["'pid'", "ibvs-current"]),
+        (
+            (*FREE, "--controllers", "pbvs,pbvs[gain=2"),
+            ["--controllers", "'pbvs,pbvs[gain=2'", "name[key=value"],
+        ),
+        ((*FREE, "--controllers", "pbvs[gain=2],pbvs[gain=2]"), ["given twice", "pbvs[gain=2]"]),
+        ((*FREE, "--controllers", "pbvs[wobble=1]"), ["wobble", "parameters of 'pbvs'"]),
         ((*FREE, "--controllers", "pbvs,ff+fb"), ["'ff+fb'", "joint_position", "camera twist"]),
         ((*FREE, "--controllers", "pbvs", "--plant", "dynamic"), ["'dynamic'", "'free-camera'"]),
         (

@@ -19,7 +19,7 @@ from typing import Any
 from .._validation import one_of, positive
 from ..exceptions import InvalidParameterError
 from .cases import ARM_FAMILIES, FAMILIES
-from .spec import CAMERA_KINDS, ExperimentSpec, specs_for
+from .spec import CAMERA_KINDS, ExperimentSpec, parse_method, specs_for
 
 __all__ = ["FAMILY_DEFAULTS", "CampaignDefinition"]
 
@@ -49,14 +49,17 @@ class CampaignDefinition:
     Attributes:
         family: A case family (:data:`~.cases.FAMILIES`).
         cases: Number of cases (>= 1).
-        controllers: Registered controller names, each once.
+        controllers: Method labels, each once: a registered controller name, or
+            ``name[key=value,...]`` with its parameters (:func:`~.spec.parse_method`), e.g.
+            ``("fb", "fb[adaptive=false]")`` runs the paper's controller with the Jacobian
+            re-linearized at every frame and evaluated once.
         seed: The campaign's seed (an integer >= 0).
         plant: ``"dynamic"``, ``"kinematic"`` or ``"free-camera"``.
         camera: ``{"kind": "stereo" | "mono" | "normalized", ...}``, or just the kind.
         duration: Simulated time per run [s].
         settings: Keyword arguments of ``SimulationSettings``.
         difficulty: The generator's difficulty knob (> 0; 1 is the stated range).
-        controller_params: Controller name -> keyword parameters of ``controllers.make``.
+        controller_params: Method label -> further keyword parameters of ``controllers.make``.
 
     Raises:
         InvalidParameterError: any of the above out of range, an unknown controller or
@@ -91,10 +94,16 @@ class CampaignDefinition:
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise InvalidParameterError(name, value, f"an integer >= {low}")
         names = (self.controllers,) if isinstance(self.controllers, str) else tuple(self.controllers)
-        unknown = [n for n in names if n not in registry.names()]
+        methods = [parse_method(label) for label in names]  # raises on a malformed label
+        unknown = [
+            label for label, (name, _) in zip(names, methods, strict=True) if name not in registry.names()
+        ]
         if not names or unknown or len(set(names)) != len(names):
             raise InvalidParameterError(
-                "controllers", list(names), "registered names, each once: " + ", ".join(registry.names())
+                "controllers",
+                list(names),
+                "method labels, each once, of the registered names (name or name[key=value,...]): "
+                + ", ".join(registry.names()),
             )
         put("controllers", names)
         put("plant", one_of(self.plant or defaults["plant"], "plant", PLANTS))
@@ -119,13 +128,15 @@ class CampaignDefinition:
                 "'dynamic' or 'kinematic' for the arm" if arm_family else "'free-camera' for the free-flying"
             )
             raise InvalidParameterError("plant", self.plant, f"{valid} family {self.family!r}")
-        for name in names:
-            kind = registry.make(name, **params.get(name, {})).command_type  # raises on unknown parameters
+        for label, (name, own) in zip(names, methods, strict=True):
+            kind = registry.make(
+                name, **{**own, **params.get(label, {})}
+            ).command_type  # raises on unknown ones
             if self.plant == "free-camera" and kind not in FreeCameraPlant.accepts:
                 raise InvalidParameterError(
                     "controllers",
-                    name,
-                    f"controllers that command a camera twist on the free camera ({name!r} commands "
+                    label,
+                    f"controllers that command a camera twist on the free camera ({label!r} commands "
                     f"{kind.value}: it needs an arm family and plant)",
                 )
 

@@ -11,10 +11,16 @@ Outcome of a run (:data:`OUTCOMES`), the first that applies:
    :data:`REACHED_DEG` = 0.1 deg of the target;
 5. ``"qp_infeasible"`` — an MPC law met an infeasible QP on some frame (its signal
    ``qp_infeasible_frames``) and did not reach the target;
-6. ``"local_minimum"`` — the image error norm changed by less than 0.1 % over the last 20 % of
-   the run (``analysis.convergence.classify``'s "stalled") with the camera still away from the
-   target;
+6. the image error norm changed by less than 0.1 % over the last 20 % of the run
+   (``analysis.convergence.classify``'s "stalled") with the camera still away from the target:
+   ``"singularity"`` on an arm whose final camera Jacobian has a smallest singular value below
+   :data:`SINGULAR_SIGMA` (the arm cannot move the camera in some direction: a stall of the
+   arm, not of the image law), else ``"local_minimum"``;
 7. ``"not_converged"`` — still moving at the end of the run.
+
+``final_jacobian_sigma`` is that smallest singular value of the 6x6 camera Jacobian (LOCAL
+frame, m/rad and 1) at the last sample, for every arm run (NaN on the free camera; rows stored
+before the column existed read it as NaN).
 
 Time to reach: the first sample time from which the pose stays within 1 mm / 0.1 deg until
 the end (``analysis.compare.time_to_converge``; ``inf`` when it never does).
@@ -29,12 +35,22 @@ import numpy as np
 
 from ..analysis.compare import path_length_m, time_to_converge
 from ..analysis.convergence import classify
+from .cases import MIN_JACOBIAN_SIGMA
 
-__all__ = ["COLUMNS", "OUTCOMES", "REACHED_DEG", "REACHED_MM", "error_row", "row_from_result"]
+__all__ = [
+    "COLUMNS",
+    "OUTCOMES",
+    "REACHED_DEG",
+    "REACHED_MM",
+    "SINGULAR_SIGMA",
+    "error_row",
+    "row_from_result",
+]
 
 OUTCOMES = (
     "reached",
     "local_minimum",
+    "singularity",
     "not_converged",
     "diverged",
     "features_lost",
@@ -45,6 +61,7 @@ OUTCOMES = (
 )
 REACHED_MM = 1.0  # [mm]
 REACHED_DEG = 0.1  # [deg]
+SINGULAR_SIGMA = MIN_JACOBIAN_SIGMA  # the case generator's margin: no start or target is closer
 _STATUS_OUTCOME = {
     "diverged": "diverged",
     "markers_lost": "features_lost",
@@ -74,6 +91,7 @@ COLUMNS: dict[str, type] = {
     "peak_joint_speed_ratio": float,
     "peak_torque_ratio": float,
     "qp_infeasible_frames": int,
+    "final_jacobian_sigma": float,
     "update_median_us": float,
     "update_p95_us": float,
     "difficulty_rotation_deg": float,
@@ -89,7 +107,7 @@ def _base(spec: Any, wall_s: float) -> dict[str, Any]:
         "family": spec.family,
         "case": spec.case,
         "seed": spec.seed,
-        "controller": spec.controller,
+        "controller": spec.method,
         "plant": spec.plant,
         "camera": str(spec.camera.get("kind", "")),
         "duration": spec.duration,
@@ -126,6 +144,9 @@ def row_from_result(spec: Any, result: Any, arm: Any = None, wall_s: float = mat
     path = path_length_m(result.camera_pose) if n else math.nan
     speed_ratio = torque_ratio = math.nan
     joint_limit = False
+    sigma = math.nan
+    if arm is not None and "q_true" in result.signals and n:
+        sigma = float(np.linalg.svd(arm.camera_jacobian(result.q_true[-1]), compute_uv=False)[-1])
     if arm is not None and "dq" in result.signals and n:
         speed_ratio = float((np.abs(result.dq) / np.asarray(arm.dq_max)).max())
         q = result.q_true
@@ -145,7 +166,7 @@ def row_from_result(spec: Any, result: Any, arm: Any = None, wall_s: float = mat
     elif infeasible:
         outcome = "qp_infeasible"
     elif n and classify(result).kind == "stalled":
-        outcome = "local_minimum"
+        outcome = "singularity" if sigma < SINGULAR_SIGMA else "local_minimum"
     else:
         outcome = "not_converged"
     update_us = np.asarray(result.update_time) * 1e6
@@ -163,6 +184,7 @@ def row_from_result(spec: Any, result: Any, arm: Any = None, wall_s: float = mat
         peak_joint_speed_ratio=speed_ratio,
         peak_torque_ratio=torque_ratio,
         qp_infeasible_frames=infeasible,
+        final_jacobian_sigma=sigma,
         update_median_us=float(np.median(update_us)) if update_us.size else math.nan,
         update_p95_us=float(np.percentile(update_us, 95)) if update_us.size else math.nan,
     )

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..exceptions import InvalidParameterError
+from ..exceptions import IbvsYoulaError, InvalidParameterError
 from .metrics import OUTCOMES
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -71,6 +71,7 @@ AXES = {
 _COLOURS = {
     "reached": "tab:green",
     "local_minimum": "tab:red",
+    "singularity": "tab:cyan",
     "not_converged": "tab:orange",
     "diverged": "black",
     "features_lost": "tab:purple",
@@ -127,11 +128,20 @@ def read_rows(folder: str | Path) -> pd.DataFrame:
 
 
 def _methods(rows: pd.DataFrame) -> list[str]:
-    """The methods of ``rows`` in registry order, then any other name alphabetically."""
+    """The methods of ``rows`` in registry order of their controllers, then by label."""
     from ..controllers import names
+    from .spec import parse_method
 
-    present = set(rows["controller"])
-    return [n for n in names() if n in present] + sorted(present - set(names()))
+    order = {name: k for k, name in enumerate(names())}
+
+    def rank(label: str) -> tuple[int, str]:
+        try:
+            name = parse_method(label)[0]
+        except IbvsYoulaError:
+            name = label
+        return order.get(name, len(order)), label
+
+    return sorted(set(rows["controller"]), key=rank)
 
 
 @dataclass(frozen=True)

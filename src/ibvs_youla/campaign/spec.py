@@ -5,12 +5,19 @@ to JSON; :attr:`ExperimentSpec.key` is the first 20 hex digits of the SHA-256 of
 JSON (sorted keys, no spaces, floats written by ``repr``), so the same spec has the same key
 on any machine and a campaign can skip the runs it already stored. :meth:`ExperimentSpec.build`
 turns it back into the arguments of :func:`ibvs_youla.simulate`.
+
+A *method* is a registered controller with its parameters; its label is the name, followed by
+the parameters in brackets when it has any (:func:`method_label`), e.g. ``fb[adaptive=false]``
+for the paper's feedback-only controller with the Jacobian evaluated once. A campaign runs
+methods, so the same controller can run with and without an option side by side; the label
+is the ``controller`` column of a row.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import re
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -19,7 +26,15 @@ import numpy as np
 
 from ..exceptions import InvalidParameterError
 
-__all__ = ["CAMERA_KINDS", "ExperimentSpec", "camera_from_spec", "specs_for"]
+__all__ = [
+    "CAMERA_KINDS",
+    "ExperimentSpec",
+    "camera_from_spec",
+    "method_label",
+    "parse_method",
+    "specs_for",
+    "split_methods",
+]
 
 CAMERA_KINDS = ("stereo", "mono", "normalized")
 
@@ -35,6 +50,87 @@ def _plain(value: Any) -> Any:
     if isinstance(value, (list, tuple)):
         return [_plain(v) for v in value]
     return value
+
+
+_LABEL = re.compile(r"\s*([^\[\],=\s]+)\s*(?:\[(.*)\])?\s*", re.DOTALL)
+_BARE = re.compile(r"[A-Za-z_][A-Za-z0-9_.+-]*")
+
+
+def _value_text(value: Any) -> str:
+    """A parameter value as a label writes it: JSON, except a string that reads back as itself."""
+    if isinstance(value, str) and _BARE.fullmatch(value) and value not in ("true", "false", "null"):
+        return value
+    return json.dumps(value, separators=(",", ":"))
+
+
+def method_label(controller: str, params: Mapping[str, Any] | None = None) -> str:
+    """``controller``, or ``controller[k=v,...]`` with the parameters sorted by name (values as JSON).
+
+    >>> method_label("fb", {"adaptive": False})
+    'fb[adaptive=false]'
+    """
+    if not params:
+        return controller
+    return f"{controller}[{','.join(f'{k}={_value_text(v)}' for k, v in sorted(params.items()))}]"
+
+
+def _value(text: str, label: str) -> Any:
+    text = text.strip()
+    try:
+        return json.loads(text)
+    except ValueError:
+        if _BARE.fullmatch(text):
+            return text
+        raise InvalidParameterError(
+            "method", label, "name[key=value,...] with JSON values or plain words"
+        ) from None
+
+
+def _split_top(text: str) -> list[str]:
+    """``text`` split at the commas outside brackets and quotes."""
+    parts, depth, quoted, start = [], 0, False, 0
+    for i, ch in enumerate(text):
+        if ch == '"' and (i == 0 or text[i - 1] != "\\"):
+            quoted = not quoted
+        elif not quoted and ch in "[{":
+            depth += 1
+        elif not quoted and ch in "]}":
+            depth -= 1
+        elif not quoted and depth == 0 and ch == ",":
+            parts.append(text[start:i])
+            start = i + 1
+    parts.append(text[start:])
+    return parts
+
+
+def parse_method(label: str) -> tuple[str, dict[str, Any]]:
+    """The controller name and parameters of a method label (inverse of :func:`method_label`).
+
+    >>> parse_method("fb[adaptive=false]")
+    ('fb', {'adaptive': False})
+
+    Raises:
+        InvalidParameterError: not ``name`` or ``name[key=value,...]``, or a key given twice.
+    """
+    match = _LABEL.fullmatch(label) if isinstance(label, str) else None
+    if match is None:
+        raise InvalidParameterError("method", label, "name or name[key=value,...], e.g. fb[adaptive=false]")
+    name, inner = match.group(1), match.group(2)
+    params: dict[str, Any] = {}
+    for item in _split_top(inner) if inner is not None and inner.strip() else []:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key.isidentifier() or key in params:
+            raise InvalidParameterError(
+                "method", label, "name[key=value,...] with each key an identifier, given once"
+            )
+        params[key] = _value(text, label)
+    return name, params
+
+
+def split_methods(text: str) -> list[str]:
+    """A comma-separated list of method labels (commas inside brackets belong to the label)."""
+    return [part.strip() for part in _split_top(text)]
 
 
 def camera_from_spec(camera: Mapping[str, Any]) -> Any:
@@ -86,6 +182,11 @@ class ExperimentSpec:
     controller_params: Mapping[str, Any] = field(default_factory=dict)
     settings: Mapping[str, Any] = field(default_factory=dict)
     difficulty: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def method(self) -> str:
+        """The method's label (:func:`method_label`): the row's ``controller`` column."""
+        return method_label(self.controller, self.controller_params)
 
     def __post_init__(self) -> None:
         for name in ("case", "seed"):
@@ -162,8 +263,21 @@ def specs_for(
     settings: Mapping[str, Any] | None = None,
     controller_params: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> list[ExperimentSpec]:
-    """One spec per (case, controller), cases outer: every method runs on the same cases."""
+    """One spec per (case, method), cases outer: every method runs on the same cases.
+
+    Args:
+        cases: The cases (:class:`~.cases.Case`).
+        controllers: Method labels (:func:`parse_method`): a registered name, or
+            ``name[key=value,...]``.
+        seed: The campaign's seed.
+        plant: The plant's name.
+        camera: The camera as data (:func:`camera_from_spec`).
+        duration: Simulated time per run [s].
+        settings: Keyword arguments of ``SimulationSettings``.
+        controller_params: Label -> further parameters (added to those of the label).
+    """
     params = controller_params or {}
+    methods = [(label, *parse_method(label)) for label in controllers]
     return [
         ExperimentSpec(
             family=case.family,
@@ -174,10 +288,10 @@ def specs_for(
             plant=plant,
             camera=camera,
             duration=duration,
-            controller_params=params.get(name, {}),
+            controller_params={**own, **params.get(label, {})},
             settings=settings or {},
             difficulty=case.difficulty,
         )
         for case in cases
-        for name in controllers
+        for label, name, own in methods
     ]

@@ -51,6 +51,27 @@ def count(low: int) -> Any:
     return parse
 
 
+def method_list(text: str) -> tuple[str, ...]:
+    """``--controllers a,b[k=v],...``: method labels of registered controllers, each once (argparse type)."""
+    from .. import controllers
+    from ..campaign.spec import parse_method, split_methods
+    from ..exceptions import InvalidParameterError
+
+    labels = tuple(split_methods(text))
+    valid = controllers.names()
+    try:
+        unknown = [label for label in labels if parse_method(label)[0] not in valid]
+    except InvalidParameterError as err:
+        raise argparse.ArgumentTypeError(f"received {text!r}; {one_line(err)}") from None
+    if unknown or len(set(labels)) != len(labels):
+        what = f"unknown {', '.join(repr(n) for n in unknown)}" if unknown else "a method given twice"
+        raise argparse.ArgumentTypeError(
+            f"received {text!r} ({what}); valid: comma-separated methods, each once, a name from "
+            f"{', '.join(valid)}, optionally with parameters as name[key=value,...], e.g. fb[adaptive=false]"
+        )
+    return labels
+
+
 def scheduler_address(text: str) -> str:
     """``--scheduler``: ``[tcp://]HOST:PORT`` (argparse type; reaching it is checked later)."""
     from distributed.comm import parse_address, parse_host_port

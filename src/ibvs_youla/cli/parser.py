@@ -235,9 +235,10 @@ def _add_campaign(sub: Any) -> None:
     p.add_argument("--cases", type=campaign.count(1), required=True, metavar="N", help="number of cases")
     p.add_argument(
         "--controllers",
-        type=compare.controller_list,
+        type=campaign.method_list,
         metavar="A,B,...",
-        help=f"comma-separated, from {', '.join(controllers.names())} (default: every one the plant takes; "
+        help=f"comma-separated methods, from {', '.join(controllers.names())}, each optionally with "
+        "parameters: NAME[KEY=VALUE,...], e.g. fb[adaptive=false] (default: every one the plant takes; "
         "fb and ff+fb command joints and need an arm plant)",
     )
     p.add_argument(

@@ -8,7 +8,15 @@ import pickle
 import numpy as np
 import pytest
 
-from ibvs_youla.campaign.cases import FAMILIES, MAX_JOINT_STEP_DEG, generate_cases
+from ibvs_youla.campaign.cases import (
+    FAMILIES,
+    MAX_JOINT_STEP_DEG,
+    MAX_ROLL_DEG,
+    MIN_ROLL_DEG,
+    ROLL_TILT_DEG,
+    ROLL_TRANSLATION_M,
+    generate_cases,
+)
 from ibvs_youla.campaign.definition import CampaignDefinition
 from ibvs_youla.campaign.metrics import COLUMNS, OUTCOMES
 from ibvs_youla.campaign.run import run_spec
@@ -174,3 +182,22 @@ def test_a_stall_at_an_arm_singularity_is_not_called_a_local_minimum():
     assert row["outcome"] == "singularity" and row["final_jacobian_sigma"] < 1e-5
     assert row["final_position_mm"] == pytest.approx(64.80, abs=0.05)
     assert row["final_feature_error"] > 1e-5  # the image error stayed (normalized units)
+
+
+def test_free_roll_cases_turn_about_the_optical_axis():
+    cases = generate_cases("free-roll", 60, 4)
+    for case in cases:
+        T_start, T_target = case.scenario["T_O_C_start"], case.scenario["T_O_C_target"]
+        delta = np.linalg.inv(T_target) @ T_start  # T_C*_C0
+        tilt_deg = math.degrees(math.acos(np.clip(delta[2, 2], -1.0, 1.0)))  # optical axes apart
+        assert tilt_deg <= ROLL_TILT_DEG + 1e-9
+        assert MIN_ROLL_DEG - ROLL_TILT_DEG <= case.difficulty["rotation_deg"] <= MAX_ROLL_DEG
+        assert case.difficulty["translation_m"] <= ROLL_TRANSLATION_M + 1e-12
+    rolls = [c.difficulty["rotation_deg"] for c in cases]
+    assert max(rolls) > 170.0 and min(rolls) < 100.0  # the range is covered
+    signs = {
+        np.sign(np.linalg.inv(c.scenario["T_O_C_target"]) @ c.scenario["T_O_C_start"])[1, 0] for c in cases
+    }
+    assert signs == {-1.0, 1.0}  # both senses
+    with pytest.raises(InvalidParameterError, match="difficulty"):
+        generate_cases("free-roll", 1, 4, difficulty=0.0)

@@ -23,6 +23,12 @@ Families (:data:`FAMILIES`):
   up to ``difficulty`` x :data:`MAX_ROTATION_DEG` and a translation up to ``difficulty`` x
   :data:`MAX_TRANSLATION_M` away, kept only if every point stays 0.1 m or more in front and
   within |x|, |y| <= 1 (45 deg off the axis) at the start.
+* ``"free-roll"`` — the planar square, with the start camera turned about the optical axis
+  by :data:`MIN_ROLL_DEG`-:data:`MAX_ROLL_DEG` (x ``difficulty``, at most 180 deg, either
+  sign), then tilted about a random axis by up to ``difficulty`` x :data:`ROLL_TILT_DEG` and
+  moved by up to ``difficulty`` x :data:`ROLL_TRANSLATION_M`, same visibility rule: the
+  classical hard case of IBVS (Chaumette 1998: a rotation of 180 deg about the optical axis
+  makes the camera retreat; near it, local minima and singular interaction matrices).
 
 The difficulty of a case is reported with it: the rotation angle [deg] and the distance [m]
 between the start and target camera poses.
@@ -43,14 +49,18 @@ __all__ = [
     "FAMILIES",
     "LIMIT_MARGIN",
     "MAX_JOINT_STEP_DEG",
+    "MAX_ROLL_DEG",
     "MAX_ROTATION_DEG",
     "MAX_TRANSLATION_M",
     "MIN_JACOBIAN_SIGMA",
+    "MIN_ROLL_DEG",
+    "ROLL_TILT_DEG",
+    "ROLL_TRANSLATION_M",
     "Case",
     "generate_cases",
 ]
 
-FAMILIES = ("arm-physical", "arm-virtual", "free-planar", "free-nonplanar")
+FAMILIES = ("arm-physical", "arm-virtual", "free-planar", "free-nonplanar", "free-roll")
 ARM_FAMILIES = ("arm-physical", "arm-virtual")
 LIMIT_MARGIN = 0.1  # of each joint's range, kept clear at both ends
 WRIST_MARGIN_DEG = 10.0  # |q5| >= this [deg]
@@ -58,6 +68,9 @@ MIN_JACOBIAN_SIGMA = 0.05  # smallest singular value of the 6x6 LOCAL camera Jac
 MAX_JOINT_STEP_DEG = 30.0  # per joint at difficulty 1 [deg]
 MAX_ROTATION_DEG = 90.0  # free camera, at difficulty 1 [deg]
 MAX_TRANSLATION_M = 0.3  # free camera, at difficulty 1 [m]
+MIN_ROLL_DEG, MAX_ROLL_DEG = 90.0, 180.0  # free-roll: about the optical axis, at difficulty 1 [deg]
+ROLL_TILT_DEG = 5.0  # free-roll: about a random axis, at difficulty 1 [deg]
+ROLL_TRANSLATION_M = 0.05  # free-roll, at difficulty 1 [m]
 MAX_DRAWS = 200  # rejection sampling gives up after this many draws of one case
 SQUARE_O = np.array([[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]])  # [m]
 OFF_PLANE_O = np.array([[0.0, 0.05, 0.1], [0.05, -0.05, -0.1]])  # [m], the non-planar extras
@@ -198,23 +211,45 @@ def _arm_case(
 
 
 # ----------------------------------------------------------------------------- free camera
+def _uniform_ball(rng: np.random.Generator, radius: float) -> np.ndarray:
+    direction = rng.normal(size=3)
+    direction /= np.linalg.norm(direction)
+    return radius * rng.random() ** (1.0 / 3.0) * direction
+
+
+def _random_axis(rng: np.random.Generator) -> np.ndarray:
+    axis = rng.normal(size=3)
+    return axis / np.linalg.norm(axis)
+
+
+def _free_offset(rng: np.random.Generator, difficulty: float) -> np.ndarray:
+    """T_C*_C0 of free-planar/free-nonplanar: a random rotation and translation (module docstring)."""
+    delta = np.eye(4)
+    axis = _random_axis(rng)  # (the order of the draws fixes the cases of a seed: keep it)
+    angle = math.radians(MAX_ROTATION_DEG) * difficulty * rng.random()
+    delta[:3, :3] = _rotvec_matrix(angle * axis)
+    delta[:3, 3] = _uniform_ball(rng, MAX_TRANSLATION_M * difficulty)
+    return delta
+
+
+def _roll_offset(rng: np.random.Generator, difficulty: float) -> np.ndarray:
+    """T_C*_C0 of free-roll: a turn about the optical axis, a small tilt and shift (module docstring)."""
+    low, high = (min(math.radians(a) * difficulty, math.pi) for a in (MIN_ROLL_DEG, MAX_ROLL_DEG))
+    roll = (low + (high - low) * rng.random()) * rng.choice((-1.0, 1.0))
+    tilt = math.radians(ROLL_TILT_DEG) * difficulty * rng.random()
+    delta = np.eye(4)
+    delta[:3, :3] = _rotvec_matrix(tilt * _random_axis(rng)) @ _rotvec_matrix(np.array([0.0, 0.0, roll]))
+    delta[:3, 3] = _uniform_ball(rng, ROLL_TRANSLATION_M * difficulty)
+    return delta
+
+
 def _free_case(family: str, index: int, rng: np.random.Generator, difficulty: float) -> Case:
-    points = SQUARE_O if family == "free-planar" else np.vstack([SQUARE_O, OFF_PLANE_O])
+    points = np.vstack([SQUARE_O, OFF_PLANE_O]) if family == "free-nonplanar" else SQUARE_O
     cMo_target = np.eye(4)
     cMo_target[:3, 3] = (0.0, 0.0, 0.75)  # the target camera 0.75 m in front of the points, facing them
     T_target = np.linalg.inv(cMo_target)
     for draw in range(1, MAX_DRAWS + 1):
-        axis = rng.normal(size=3)
-        axis /= np.linalg.norm(axis)
-        angle = math.radians(MAX_ROTATION_DEG) * difficulty * rng.random()
-        direction = rng.normal(size=3)
-        direction /= np.linalg.norm(direction)
-        offset = (
-            MAX_TRANSLATION_M * difficulty * rng.random() ** (1.0 / 3.0) * direction
-        )  # uniform in the ball
-        delta = np.eye(4)  # T_C*_C0: the start camera in the target camera's frame
-        delta[:3, :3] = _rotvec_matrix(angle * axis)
-        delta[:3, 3] = offset
+        delta = _roll_offset(rng, difficulty) if family == "free-roll" else _free_offset(rng, difficulty)
         T_start = T_target @ delta
         P_C = (points - T_start[:3, 3]) @ T_start[:3, :3]
         if P_C[:, 2].min() < 0.1 or np.abs(P_C[:, :2] / P_C[:, 2:]).max() > 1.0:

@@ -37,6 +37,7 @@ Rules (URDF elements as in the ROS URDF specification; the tolerances are the co
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
@@ -101,14 +102,14 @@ def check_urdf_file(path: Path) -> None:
         _check_joint(path, f"joint {joint.get('name')!r}", joint)
 
 
-def _numbers(path: Any, element: str, text: str | None, count: int, valid: str) -> np.ndarray:
+def _numbers(path: Any, element: str, text: str | None, count: int, valid: str) -> list[float]:
     """``count`` finite numbers from an attribute's text, or ModelLoadError quoting it."""
     try:
-        values = np.array([float(word) for word in (text or "").split()], dtype=float)
+        values = [float(word) for word in (text or "").split()]
     except ValueError:
-        values = np.array([])
-    if values.shape != (count,) or not np.all(np.isfinite(values)):
-        raise _invalid(path, element, repr(text), valid)
+        values = []
+    if len(values) != count or not all(math.isfinite(x) for x in values):
+        raise _invalid(path, element, "no value" if text is None else repr(text), valid)
     return values
 
 
@@ -185,16 +186,17 @@ def inertia_problem(inertia: np.ndarray) -> str | None:
     if np.abs(inertia - inertia.T).max() > slack:
         return f"an asymmetric tensor {inertia.tolist()}"
     moments = np.linalg.eigvalsh(inertia)  # ascending principal moments
+    if moments[0] > 0.0 and moments[2] <= moments[0] + moments[1] + slack:
+        return None
     text = f"principal moments {np.array2string(moments, precision=6)} [kg m^2]"
     if not moments[0] > 0.0:
         return f"{text}, not positive definite"
-    if moments[2] > moments[0] + moments[1] + slack:
-        excess = f"{moments[2]:.6g} > {moments[0]:.6g} + {moments[1]:.6g}"
-        return f"{text}, which break the triangle inequality ({excess})"
-    return None
+    excess = f"{moments[2]:.6g} > {moments[0]:.6g} + {moments[1]:.6g}"
+    return f"{text}, which break the triangle inequality ({excess})"
 
 
-def _check_axis(path: Any, joint: str, axis: np.ndarray, received: str) -> None:
+def _check_axis(path: Any, joint: str, axis: Any, received: str) -> None:
+    axis = np.asarray(axis, dtype=float)
     norm = float(np.linalg.norm(axis))
     if abs(norm - 1.0) > AXIS_TOL:
         hint = f"; write {' '.join(f'{x:.17g}' for x in axis / norm)}" if norm > 0.0 else ""
@@ -214,40 +216,63 @@ def check_model(model: pin.Model, path: Any) -> None:
     Raises:
         ModelLoadError: naming the joint (and the links it moves) or the frame at fault.
     """
+    frames = list(model.frames)
     for j in range(1, model.njoints):
-        links = [f.name for f in model.frames if f.parentJoint == j and f.type == pin.FrameType.BODY]
         joint = f"joint {model.names[j]!r}"
-        body = f"{joint} (moving link {', '.join(map(repr, links)) or 'none'})"
         inertia = model.inertias[j]
-        if not (np.isfinite(inertia.mass) and inertia.mass > 0.0):
-            raise _invalid(path, body, f"a body of mass {inertia.mass:g} [kg]", _BODY_VALID)
-        if not np.all(np.isfinite(inertia.lever)):
-            raise _invalid(path, body, f"centre of mass {inertia.lever.tolist()}", "finite [m]")
-        problem = inertia_problem(np.asarray(inertia.inertia))
+        problem = _body_problem(inertia.mass, inertia.lever, np.asarray(inertia.inertia))
         if problem is not None:
-            raise _invalid(path, body, problem, _INERTIA_VALID)
+            links = [f.name for f in frames if f.parentJoint == j and f.type == pin.FrameType.BODY]
+            body = f"{joint} (moving link {', '.join(map(repr, links)) or 'none'})"
+            raise _invalid(path, body, *problem)
         kind = model.joints[j].shortname()
         if kind == "JointModelRevoluteUnaligned":
             axis = np.asarray(model.joints[j].extract().axis, dtype=float)
             _check_axis(path, joint, axis, f"axis {axis.tolist()}")
-        _check_rigid(path, f"{joint} placement", model.jointPlacements[j])
-        _check_limits(model, j, path, joint)
-    for frame in model.frames:
-        _check_rigid(path, f"frame {frame.name!r} placement", frame.placement)
+    placements = [
+        (f"joint {model.names[j]!r} placement", model.jointPlacements[j]) for j in range(1, model.njoints)
+    ]
+    _check_rigid(path, placements + [(f"frame {f.name!r} placement", f.placement) for f in frames])
+    lower, upper = model.lowerPositionLimit, model.upperPositionLimit
+    speed, effort = model.velocityLimit, model.effortLimit
+    finite = np.isfinite(np.concatenate([lower, upper, speed, effort])).all()
+    if not (finite and (lower < upper).all() and (speed > 0.0).all() and (effort > 0.0).all()):
+        for j in range(1, model.njoints):
+            _check_limits(model, j, path, f"joint {model.names[j]!r}")
 
 
-def _check_rigid(path: Any, element: str, placement: pin.SE3) -> None:
-    R, p = placement.rotation, placement.translation
-    if not (np.all(np.isfinite(R)) and np.all(np.isfinite(p))):
-        raise _invalid(path, element, f"R = {R.tolist()}, p = {p.tolist()}", "a finite rigid transform")
-    error = max(float(np.abs(R.T @ R - np.eye(3)).max()), abs(float(np.linalg.det(R)) - 1.0))
-    if error > RIGID_TOL:
-        raise _invalid(
-            path, element, f"a rotation {error:.3g} from SO(3)", f"a rotation within {RIGID_TOL:g} of SO(3)"
+def _body_problem(mass: float, lever: np.ndarray, inertia: np.ndarray) -> tuple[str, str] | None:
+    """(received, valid) saying what is wrong with a body's mass, centre of mass or inertia, or None."""
+    if not (math.isfinite(mass) and mass > 0.0):
+        return f"a body of mass {mass:g} [kg]", _BODY_VALID
+    if not np.isfinite(lever).all():
+        return f"centre of mass {lever.tolist()}", "finite [m]"
+    problem = inertia_problem(inertia)
+    return None if problem is None else (problem, _INERTIA_VALID)
+
+
+def _check_rigid(path: Any, placements: list[tuple[str, pin.SE3]]) -> None:
+    """Raise naming the first placement that is not a finite rigid transform (within RIGID_TOL)."""
+    H = np.array([placement.homogeneous for _, placement in placements])  # (n, 4, 4)
+    R = H[:, :3, :3]
+    with np.errstate(invalid="ignore", over="ignore"):
+        error = np.maximum(
+            np.abs(R.transpose(0, 2, 1) @ R - np.eye(3)).max(axis=(1, 2)), np.abs(np.linalg.det(R) - 1.0)
         )
+    bad = ~(np.isfinite(H).all(axis=(1, 2)) & (error <= RIGID_TOL))
+    if not bad.any():
+        return
+    k = int(np.argmax(bad))
+    element = placements[k][0]
+    if not np.isfinite(H[k]).all():
+        received = f"R = {R[k].tolist()}, p = {H[k, :3, 3].tolist()}"
+        raise _invalid(path, element, received, "a finite rigid transform")
+    valid = f"a rotation within {RIGID_TOL:g} of SO(3)"
+    raise _invalid(path, element, f"a rotation {error[k]:.3g} from SO(3)", valid)
 
 
 def _check_limits(model: pin.Model, j: int, path: Any, joint: str) -> None:
+    """Raise naming joint ``j`` if its position, speed or effort limits are not valid."""
     i, n = model.idx_qs[j], model.nqs[j]
     lower, upper = model.lowerPositionLimit[i : i + n], model.upperPositionLimit[i : i + n]
     if not (np.all(np.isfinite(lower)) and np.all(np.isfinite(upper)) and np.all(lower < upper)):

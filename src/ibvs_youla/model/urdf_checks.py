@@ -21,9 +21,8 @@ Rules (URDF elements as in the ROS URDF specification; the tolerances are the co
 - ``<origin>``: ``xyz`` and ``rpy`` three finite numbers each (a rotation from finite rpy is
   rigid by construction).
 - ``<axis>`` of a moving joint: three finite numbers of unit length within ``AXIS_TOL``. A zero
-  or non-unit axis is **rejected, not normalized**: the spec asks for a normalized vector, a
-  scaled one is an authoring error (Pinocchio would silently normalize it), and the message
-  gives the unit axis to write instead.
+  or non-unit axis is **rejected, not normalized**: Pinocchio would silently normalize a scaled
+  one, so the file and the model would disagree; the message gives the unit axis to write.
 - ``<limit>`` of a revolute or prismatic joint: ``lower`` and ``upper`` finite with lower <
   upper (both default to 0); ``velocity`` and ``effort`` finite and > 0 (the arm uses them as
   speed and torque limits). ``<dynamics>`` is not read (the arm takes damping from its
@@ -210,7 +209,8 @@ def check_model(model: pin.Model, path: Any) -> None:
     """Check the bodies, axes, placements and limits of ``model`` (module rules).
 
     Args:
-        model: The Pinocchio model (any number of joints).
+        model: The Pinocchio model (any number of joints, each with finite position limits
+            and positive speed and effort limits, as the arm needs).
         path: The file it came from (for the error), or None.
 
     Raises:

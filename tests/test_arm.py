@@ -319,8 +319,10 @@ def test_ur5_loads_from_example_robot_data():
 
 # ----------------------------------------------------------------------------------------- URDF checks
 def six_joint_urdf(tmp_path, *, joint3="revolute", lower="-1", upper="1", velocity="1", effort="1"):
-    """A six-joint serial chain (link_0 .. link_6); joint 3 takes the type and limits given."""
-    links = "".join(f'<link name="link_{i}"/>' for i in range(7))
+    """A six-joint serial chain (link_0 .. link_6) of 1 kg links; joint 3 takes the type and limits given."""
+    inertia = '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/>'
+    inertial = f'<inertial><mass value="1"/>{inertia}</inertial>'
+    links = "".join(f'<link name="link_{i}">{inertial}</link>' for i in range(7))
     joints = []
     for i in range(1, 7):
         kind, limit = "revolute", '<limit lower="-1" upper="1" velocity="1" effort="1"/>'
@@ -345,10 +347,13 @@ def test_six_joint_urdf_helper_loads_when_valid(tmp_path):
     ("changes", "message"),
     [
         ({"joint3": "prismatic"}, r"joint 'j3' \(JointModelPZ\) is not a bounded revolute joint"),
-        ({"lower": "1", "upper": "-1"}, "joint position limits must be finite with lower < upper"),
-        ({"lower": "0.5", "upper": "0.5"}, "joint position limits must be finite with lower < upper"),
-        ({"velocity": "0"}, r"joint velocity and effort limits must be > 0"),
-        ({"effort": "0"}, r"joint velocity and effort limits must be > 0"),
+        (
+            {"lower": "1", "upper": "-1"},
+            r"joint 'j3' <limit>: received lower=1, upper=-1; valid: finite .*lower < upper",
+        ),
+        ({"lower": "0.5", "upper": "0.5"}, r"joint 'j3' <limit>: received lower=0\.5, upper=0\.5"),
+        ({"velocity": "0"}, r"joint 'j3' <limit velocity>: received '0'; valid: a finite number > 0"),
+        ({"effort": "0"}, r"joint 'j3' <limit effort>: received '0'; valid: a finite number > 0"),
     ],
 )
 def test_a_joint_that_is_not_a_bounded_revolute_is_rejected(tmp_path, changes, message):
@@ -362,7 +367,7 @@ def test_non_finite_limits_are_rejected(tmp_path):
     """A URDF cannot spell an infinite limit that Pinocchio parses, so the model is edited directly."""
     model = pin.buildModelFromUrdf(str(six_joint_urdf(tmp_path)))
     model.upperPositionLimit[2] = np.inf
-    with pytest.raises(ModelLoadError, match=r"joint position limits must be finite with lower < upper.*inf"):
+    with pytest.raises(ModelLoadError, match=r"model: joint 'j3' position limits: received .*upper=\[inf\]"):
         Arm(model, camera_frame="link_6")
 
 

@@ -283,7 +283,7 @@ def test_reproduce_takes_settings_from_a_config(capsys, tmp_path, monkeypatch):
 class FakeViewer:
     instances: ClassVar[list[FakeViewer]] = []
 
-    def __init__(self, arm=None, camera=None, *, zmq_url=None, open_browser=False):
+    def __init__(self, arm=None, camera=None, *, zmq_url=None, open_browser=False, connect_timeout=5.0):
         self.url, self.calls = "http://127.0.0.1:7000/static/", []
         self.options = (zmq_url, open_browser)
         FakeViewer.instances.append(self)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import re
+import socket
 import subprocess
 import sys
 import urllib.request
@@ -13,7 +14,7 @@ import pinocchio as pin
 import pytest
 
 from headless_chromium import chromium, meshcat_pixels, screenshot
-from ibvs_youla import scenarios
+from ibvs_youla import cli, scenarios
 from ibvs_youla.exceptions import IbvsYoulaError, InvalidArrayError, InvalidParameterError, VisualizationError
 from ibvs_youla.model._resources import urdf_path
 from ibvs_youla.model.arm import Arm
@@ -26,6 +27,7 @@ from ibvs_youla.viz import (
     lens_centres_C,
     playback_frames,
     ray_segments_O,
+    wait_for_server,
 )
 
 CAMERAS = {
@@ -160,6 +162,58 @@ def test_viewer_of_an_arm_built_without_a_urdf_raises_visualization_error():
     assert arm.urdf_path is None
     with pytest.raises(VisualizationError, match="was built without a URDF, so it has no visual geometry"):
         Viewer(arm)
+
+
+# ---------------------------------------------------------------------------- a server given by URL
+def _closed_port() -> int:
+    """A loopback TCP port nothing listens on (bound by the OS, then released)."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def test_a_zmq_url_with_no_server_times_out_with_a_visualization_error():
+    url = f"tcp://127.0.0.1:{_closed_port()}"
+    message = rf"zmq_url '{re.escape(url)}': no meshcat server answered within 0\.2 s \(connect_timeout\)"
+    with pytest.raises(VisualizationError, match=message):
+        wait_for_server(url, 0.2)
+    with pytest.raises(VisualizationError, match=message):
+        Viewer(zmq_url=url, connect_timeout=0.2)
+
+
+@pytest.mark.parametrize(
+    ("url", "timeout", "name", "received"),
+    [
+        ("nonsense", 1.0, "zmq_url", "'nonsense'"),
+        (6000, 1.0, "zmq_url", "6000"),
+        ("tcp://127.0.0.1:6000", 0.0, "connect_timeout", "0.0"),
+        ("tcp://127.0.0.1:6000", float("nan"), "connect_timeout", "nan"),
+    ],
+)
+def test_a_bad_zmq_url_or_timeout_is_named(url, timeout, name, received):
+    with pytest.raises(InvalidParameterError, match=rf"^{name}: received {received}"):
+        wait_for_server(url, timeout)
+
+
+def test_cli_view_with_no_server_at_zmq_url_exits_1_in_one_line(capsys):
+    url = f"tcp://127.0.0.1:{_closed_port()}"
+    argv = ["view", "--scenario", "physical-1", "--no-wait", "--zmq-url", url, "--zmq-timeout", "0.2"]
+    assert cli.main(argv) == 1
+    err = capsys.readouterr().err
+    assert err == (
+        f"ibvs-youla: error: --zmq-url {url!r}: no meshcat server answered within 0.2 s (--zmq-timeout); "
+        "start one with meshcat-server, or omit --zmq-url to start a local one\n"
+    )
+    assert cli.main(["view", "--zmq-url", url, "--zmq-timeout", "0"]) == 2
+    assert "argument --zmq-timeout: received '0'" in capsys.readouterr().err
+
+
+def test_a_running_server_answers_its_url_and_a_viewer_connects_to_it():
+    with Viewer() as local:
+        zmq_url = local._vis.window.zmq_url
+        assert wait_for_server(zmq_url, 10.0) == local.url
+        with Viewer(zmq_url=zmq_url, connect_timeout=10.0) as remote:
+            assert remote.url == local.url and remote._server is None  # connected, started nothing
 
 
 # ---------------------------------------------------------------------------- live viewer

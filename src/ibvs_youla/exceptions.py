@@ -92,14 +92,16 @@ class JointLimitError(IbvsYoulaError, ValueError):
 
 # --------------------------------------------------------------------------- model
 class ModelLoadError(IbvsYoulaError):
-    """A robot description (URDF) could not be found, parsed or used.
+    """A robot description (URDF) could not be found, parsed or used, or is not physically valid.
 
     Attributes:
         path: The file that was being loaded.
+        element: The link or joint at fault (e.g. ``"link 'link_3'"``), or None.
     """
 
-    def __init__(self, path: Any, message: str) -> None:
+    def __init__(self, path: Any, message: str, element: str | None = None) -> None:
         self.path = path
+        self.element = element
         super().__init__(message)
 
 

@@ -147,6 +147,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--fps", type=_positive, metavar="HZ", default=30.0, help="playback frame rate (default 30)"
     )
     p.add_argument("--zmq-url", help="connect to a running meshcat-server instead of starting one")
+    p.add_argument(
+        "--zmq-timeout",
+        type=_positive,
+        metavar="S",
+        default=5.0,
+        help="give up if the --zmq-url server has not answered after S seconds (default 5)",
+    )
     p.add_argument("--open", action="store_true", help="open the viewer in a web browser")
     p.add_argument(
         "--no-wait", action="store_true", help="exit after playing instead of serving until Ctrl-C"

@@ -10,9 +10,18 @@ from .simulate import resolve_run
 
 
 def run(args: argparse.Namespace, extra: list[str]) -> int:
-    """Play the run in the Meshcat viewer until Ctrl-C (or once with ``--no-wait``); return 0."""
+    """Play the run in the Meshcat viewer until Ctrl-C (or once with ``--no-wait``); return 0.
+
+    A ``--zmq-url`` server is asked for first, so that one that does not answer within
+    ``--zmq-timeout`` seconds fails in one line before a run is loaded or simulated.
+    """
     try:
         from ..viz import Viewer
+
+        if args.zmq_url is not None:
+            from ..viz import wait_for_server
+
+            wait_for_server(args.zmq_url, args.zmq_timeout, names=("--zmq-url", "--zmq-timeout"))
     except ImportError as err:
         raise _ViewUnavailable(err) from None
     from ..model.camera import default_camera
@@ -38,7 +47,9 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
 
         scenario, kwargs, arm, camera = resolve_run(args)
         result = simulate(scenario, **kwargs, arm=arm, camera=camera, progress=True)
-    viewer = Viewer(arm, camera, zmq_url=args.zmq_url, open_browser=args.open)
+    viewer = Viewer(
+        arm, camera, zmq_url=args.zmq_url, open_browser=args.open, connect_timeout=args.zmq_timeout
+    )
     try:
         print(f"playing {scenario.name or 'the run'} at {args.speed:g}x in {viewer.url}", flush=True)
         viewer.show_scenario(scenario)

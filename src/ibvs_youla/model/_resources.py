@@ -1,8 +1,9 @@
 """Locate, load and check robot descriptions (the URDFs shipped in ``ibvs_youla.urdf``, example-robot-data's).
 
-:class:`~ibvs_youla.model.arm.Arm` accepts six revolute joints in series with finite limits;
-these helpers turn every other case into a :class:`~ibvs_youla.exceptions.ModelLoadError`
-that says what was found.
+:class:`~ibvs_youla.model.arm.Arm` accepts six revolute joints in series; these helpers turn
+every other case into a :class:`~ibvs_youla.exceptions.ModelLoadError` that says what was
+found. Physical validity (masses, inertias, axes, limits) is checked by
+:mod:`ibvs_youla.model.urdf_checks`: the file before Pinocchio parses it, the model after.
 """
 
 from __future__ import annotations
@@ -13,10 +14,10 @@ import sysconfig
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pinocchio as pin
 
 from ..exceptions import ModelLoadError
+from .urdf_checks import check_urdf_file
 
 __all__ = ["check_chain", "example_robot_data_urdf", "frame_id", "load_urdf_model", "urdf_path"]
 
@@ -49,9 +50,12 @@ def example_robot_data_urdf(relative: str) -> Path:
 
 
 def load_urdf_model(path: Path) -> pin.Model:
-    """Pinocchio model of a URDF file (fixed base, no meshes), or ModelLoadError."""
-    if not path.is_file():
-        raise ModelLoadError(path, f"URDF file {str(path)!r} does not exist")
+    """Pinocchio model of a URDF file (fixed base, no meshes), or ModelLoadError.
+
+    The file is checked as written first (:func:`~ibvs_youla.model.urdf_checks.check_urdf_file`):
+    Pinocchio's parser reports some malformed values only on C stderr and drops them.
+    """
+    check_urdf_file(path)
     try:
         return pin.buildModelFromUrdf(str(path))
     except (RuntimeError, ValueError) as exc:
@@ -70,7 +74,7 @@ def frame_id(model: pin.Model, name: str, path: Any, role: str) -> int:
 
 
 def check_chain(model: pin.Model, path: Any) -> None:
-    """Six revolute joints in series with finite position limits and positive speed/effort limits."""
+    """Six revolute joints in series (their limits are checked by :func:`.urdf_checks.check_model`)."""
     if model.nq != _N or model.nv != _N or model.njoints != _N + 1:
         raise ModelLoadError(
             path, f"expected 6 one-DOF joints, got nq={model.nq}, nv={model.nv}, {model.njoints - 1} joints"
@@ -83,8 +87,3 @@ def check_chain(model: pin.Model, path: Any) -> None:
                 f"joint {model.names[j]!r} ({joint.shortname()}) is not a bounded "
                 "revolute joint of a serial chain",
             )
-    lo, hi = model.lowerPositionLimit, model.upperPositionLimit
-    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(lo < hi)):
-        raise ModelLoadError(path, f"joint position limits must be finite with lower < upper, got {lo}, {hi}")
-    if not (np.all(model.velocityLimit > 0) and np.all(model.effortLimit > 0)):
-        raise ModelLoadError(path, "joint velocity and effort limits must be > 0 (URDF <limit> tags)")

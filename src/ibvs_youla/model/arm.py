@@ -47,6 +47,7 @@ from .ik import (
     numerical_branches,
     select_branches,
 )
+from .urdf_checks import check_model
 
 __all__ = ["ActuatorParameters", "Arm"]
 
@@ -106,6 +107,7 @@ class Arm:
         source: Any = None,
     ) -> None:
         check_chain(model, source)
+        check_model(model, source)
         self.model = model.copy()
         self.name = name or model.name
         self.urdf_path = source
@@ -186,7 +188,9 @@ class Arm:
 
         Raises:
             ModelLoadError: the file is missing or unparsable, is not a 6-revolute-joint
-                serial chain with limits, or lacks the frames.
+                serial chain with limits, lacks the frames, or is not physically valid
+                (:mod:`ibvs_youla.model.urdf_checks`: masses, inertias, axes, origins,
+                limits), naming the link or joint.
         """
         path = Path(path)
         model = load_urdf_model(path)

@@ -18,14 +18,17 @@ Example::
 from __future__ import annotations
 
 from .geometry import frustum_corners_C, frustum_segments_C, lens_centres_C, ray_segments_O
+from .meshcat_server import CONNECT_TIMEOUT, wait_for_server
 from .meshcat_viewer import Viewer
 from .playback import playback_frames
 
 __all__ = [
+    "CONNECT_TIMEOUT",
     "Viewer",
     "frustum_corners_C",
     "frustum_segments_C",
     "lens_centres_C",
     "playback_frames",
     "ray_segments_O",
+    "wait_for_server",
 ]

@@ -4,8 +4,11 @@ The arm is drawn by Pinocchio's :class:`~pinocchio.visualize.MeshcatVisualizer` 
 visual shapes (``pin.buildGeomFromUrdf(..., pin.GeometryType.VISUAL)``); everything else is
 computed in :mod:`ibvs_youla.viz.geometry` and sent as meshcat line segments and spheres.
 Meshcat serves its web page and three.js from a local server (no internet needed); the viewer
-never opens a browser, it prints the URL. Scene paths: ``arm``, ``markers``, ``camera``,
-``target``, ``rays`` (see :meth:`Viewer.set_visible`).
+never opens a browser, it prints the URL. Given the ``zmq_url`` of a running server instead, it
+first asks that server for its URL and gives up after ``connect_timeout`` (default 5 s) with a
+:class:`~ibvs_youla.exceptions.VisualizationError` (:mod:`.meshcat_server`); meshcat itself
+would wait forever. Scene paths: ``arm``, ``markers``, ``camera``, ``target``, ``rays`` (see
+:meth:`Viewer.set_visible`).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from ..exceptions import InvalidArrayError, InvalidParameterError, Visualization
 from ..model.camera import StereoCamera
 from ..scenarios import Scenario
 from .geometry import frustum_segments_C, ray_segments_O
+from .meshcat_server import CONNECT_TIMEOUT, wait_for_server
 from .playback import playback_frames
 
 if TYPE_CHECKING:  # Arm imports Pinocchio: loaded when a Viewer is built, so importing viz stays cheap
@@ -70,6 +74,8 @@ class Viewer:
         arm: The arm; default ``Arm.irb4600()``. Needs ``arm.urdf_path`` (its visual geometry).
         camera: The stereo camera; default ``StereoCamera.zed2()``.
         zmq_url: Connect to a running ``meshcat-server`` instead of starting one.
+        connect_timeout: How long to wait for that server's answer [s]
+            (:func:`~.meshcat_server.wait_for_server`).
         open_browser: Open the page in the system browser (default: only print the URL).
         frustum_far: Far end of the drawn frustum [m]; the near rectangle is the camera's
             minimum depth when it is closer.
@@ -79,7 +85,8 @@ class Viewer:
         q: The configuration last displayed (6,) [rad] (true joint angles).
 
     Raises:
-        VisualizationError: meshcat is not installed, or the arm has no URDF.
+        VisualizationError: meshcat is not installed, the arm has no URDF, or no server
+            answered at ``zmq_url`` within ``connect_timeout``.
     """
 
     def __init__(
@@ -90,8 +97,11 @@ class Viewer:
         zmq_url: str | None = None,
         open_browser: bool = False,
         frustum_far: float = FRUSTUM_FAR,
+        connect_timeout: float = CONNECT_TIMEOUT,
     ) -> None:
         meshcat, MeshcatVisualizer = _import_meshcat()
+        if zmq_url is not None:  # meshcat would wait forever for a server that is not there
+            wait_for_server(zmq_url, connect_timeout)
         import pinocchio as pin
 
         from ..model.arm import Arm

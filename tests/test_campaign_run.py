@@ -307,6 +307,69 @@ def test_a_killed_client_resumes_with_the_same_command(tmp_path, reference, proc
     assert_same_rows(read_rows(out), reference[1])
 
 
+class _FakeFuture:
+    def __init__(self, spec_json, killed):
+        self.spec = json.loads(spec_json)
+        self.status, self.value = ("error", None) if killed else ("finished", run_spec_json(spec_json))
+        self.key = f"run-{self.spec['case']}"
+
+    def result(self):
+        return self.value
+
+    def exception(self):
+        from types import SimpleNamespace
+
+        from distributed.scheduler import KilledWorker
+
+        return KilledWorker(self.key, SimpleNamespace(address="tcp://127.0.0.1:1"), 2)
+
+    def release(self):
+        pass
+
+
+class _ClusterWithAKiller:
+    """A Dask client stand-in: the run of case 1 kills its worker, and the scheduler blames the runs
+    submitted with it that had not finished (case 2: Dask's KilledWorker for each run on the dying worker)."""
+
+    def __init__(self):
+        self.submissions = []
+
+    def map(self, function, specs, pure, retries):
+        cases = [json.loads(s)["case"] for s in specs]
+        self.submissions.append(cases)
+        return [_FakeFuture(s, killed=1 in cases and json.loads(s)["case"] >= 1) for s in specs]
+
+    def nthreads(self):
+        return {"tcp://127.0.0.1:1": 1}
+
+
+def run_spec_json(spec_json):
+    from ibvs_youla.campaign.run import run_spec
+
+    return run_spec(spec_json)
+
+
+def test_runs_blamed_for_a_dead_worker_run_again_alone_and_only_the_killer_is_an_error(tmp_path, monkeypatch):
+    import distributed
+
+    from ibvs_youla.campaign import storage
+
+    monkeypatch.setattr(distributed, "wait", lambda futures, timeout, return_when: (set(futures), set()))
+    definition = CampaignDefinition(**{**DEFINITION, "cases": 3, "controllers": ("pbvs",)})
+    storage.create_folder(tmp_path, definition.to_dict())
+    writer = storage.RowWriter(tmp_path, 100, 1e9)
+    summary = runner.CampaignSummary(tmp_path, 3, 0)
+    client = _ClusterWithAKiller()
+    bar = runner._progress_bar(3, 0, False)
+    runner._collect(client, definition.specs(), writer, summary, bar, tmp_path, False)
+    writer.flush()
+    assert client.submissions[0] == [0, 1, 2]  # together; then each blamed run alone, after the others
+    assert sorted(client.submissions[1:]) == [[1], [2]]
+    rows = read_rows(tmp_path).sort_values("case")
+    assert list(rows["outcome"]) == ["reached", "error", "reached"] and summary.errors == 1
+    assert rows["error"].iloc[1].startswith("KilledWorker: ") and rows["error"].iloc[0] == ""
+
+
 def test_a_terminated_client_flushes_its_rows_and_resumes(tmp_path, reference, processes):
     """SIGTERM (a batch system's stop) acts as Ctrl-C: rows returned before it are written, exit 130."""
     out = tmp_path / "terminated"

@@ -13,9 +13,11 @@ The campaign is data (:class:`~.definition.CampaignDefinition`, with the default
 
 Specs travel as JSON; the workers return rows (:func:`~.run.run_spec`) and never write. Tasks
 are submitted with ``pure=False, retries=2`` in a window of a few per worker thread. A worker
-that dies loses its current tasks, which the scheduler reruns elsewhere; a run that took
-down ``distributed.scheduler.allowed-failures`` (3) workers is stored as an ``"error"`` row
-(``KilledWorker``). A task that raised (``run_spec`` does not, so the cause is the worker's
+that dies loses its current tasks, which the scheduler reruns elsewhere. A run that took
+down ``distributed.scheduler.allowed-failures`` (3) workers (``KilledWorker``) may be innocent:
+the scheduler blames every run that was on a dying worker, so it is run again, alone on the
+cluster, after the others; if it kills its worker again it is stored as an ``"error"`` row.
+A task that raised (``run_spec`` does not, so the cause is the worker's
 environment, e.g. this package missing) is not stored: the campaign goes on, and the summary
 counts it so that a rerun retries it. Rows are flushed by :class:`~.storage.RowWriter` every
 ``batch_rows`` rows or ``batch_seconds`` seconds, and on Ctrl-C or SIGTERM (which the client
@@ -352,13 +354,20 @@ def _collect(
 
     function = run_spec_with_result if series else run_spec
     queue = list(reversed(pending))  # pop() from the end keeps the campaign's order
+    suspects: list[ExperimentSpec] = []  # killed a worker together with others: rerun alone
+    convicted: set[str] = set()  # killed a worker while running alone
     in_flight: dict[Any, ExperimentSpec] = {}
     window = _window(client)
-    while queue or in_flight:
+    while queue or in_flight or suspects:
         if queue and len(in_flight) < window:
             chunk = [queue.pop() for _ in range(min(window - len(in_flight), len(queue)))]
             futures = client.map(function, [s.to_json() for s in chunk], pure=False, retries=2)
             in_flight.update(zip(futures, chunk, strict=True))
+        elif not queue and not in_flight and suspects:  # alone on the cluster, after every other run
+            spec = suspects.pop(0)
+            convicted.add(spec.key)  # a death from now on is its own
+            (future,) = client.map(function, [spec.to_json()], pure=False, retries=0)
+            in_flight[future] = spec
         due = writer.seconds_until_due()
         try:
             finished, _ = wait(
@@ -376,7 +385,10 @@ def _collect(
                 row, result = value if series else (value, None)
                 _store(row, result, writer, summary, bar, path)
             elif future.status == "error" and isinstance(future.exception(), KilledWorker):
-                _store(error_row(spec, future.exception()), None, writer, summary, bar, path)
+                if spec.key in convicted:
+                    _store(error_row(spec, future.exception()), None, writer, summary, bar, path)
+                else:  # the scheduler blames every run that was on the dying workers: retry it alone
+                    suspects.append(spec)
             elif future.status == "error":
                 summary.not_stored += 1
                 if not summary.first_failure:

@@ -32,6 +32,7 @@ __all__ = [
     "camera_from_spec",
     "method_label",
     "parse_method",
+    "sort_methods",
     "specs_for",
     "split_methods",
 ]
@@ -131,6 +132,22 @@ def parse_method(label: str) -> tuple[str, dict[str, Any]]:
 def split_methods(text: str) -> list[str]:
     """A comma-separated list of method labels (commas inside brackets belong to the label)."""
     return [part.strip() for part in _split_top(text)]
+
+
+def sort_methods(rows: Any) -> list[str]:
+    """The method labels in ``rows["controller"]``, by registry order of controller, then label."""
+    from ..controllers import names
+
+    order = {name: k for k, name in enumerate(names())}
+
+    def rank(label: str) -> tuple[int, str]:
+        try:
+            name = parse_method(label)[0]
+        except InvalidParameterError:
+            name = label
+        return order.get(name, len(order)), label
+
+    return sorted(set(rows["controller"]), key=rank)
 
 
 def camera_from_spec(camera: Mapping[str, Any]) -> Any:

@@ -13,8 +13,8 @@ anti-aliasing is a line-drawing filter, not an area coverage; the conic is exact
 and supersampled coverage converges to the exact area fraction, so the rendered centroid is the
 ellipse's centre to the accuracy the tests state. Discs are composited far to near (a nearer
 disc covers a farther one), then the image is optionally blurred (``cv2.GaussianBlur``, sigma in
-pixels, replicated border), seeded Gaussian sensor noise is added (grey levels), and the result
-is rounded and clipped to uint8.
+pixels, replicated border), Gaussian sensor noise is added (grey levels; ``cv2.randn``, seeded
+for each image from the caller's numpy generator), and the result is rounded and clipped to uint8.
 
 Conventions: images are (height, width) arrays, row v, column u; pixel (v, u) covers
 [u, u + 1) x [v, v + 1) in the pixel coordinates of ``camera.to_pixels``. A stereo camera gives
@@ -277,8 +277,12 @@ def render_unchecked(
                 borderType=cv2.BORDER_REPLICATE,
             )
         if imaging.noise_sigma_grey > 0.0:
-            noise = rng.standard_normal(canvas.shape, dtype=np.float32)
-            canvas += np.float32(imaging.noise_sigma_grey) * noise
+            # cv2.randn is ~5x faster than numpy's normals; its generator is OpenCV's per-thread
+            # one, seeded for every image from ``rng``, so the noise is reproducible from the seed
+            cv2.setRNGSeed(int(rng.integers(2**31)))
+            noise = np.empty(canvas.shape, dtype=np.float32)
+            cv2.randn(noise, 0.0, imaging.noise_sigma_grey)
+            canvas += noise
         np.rint(canvas, out=canvas)
         images.append(np.clip(canvas, 0.0, 255.0, out=canvas).astype(np.uint8))
     return RenderedFrame(tuple(images), discs, holes, drawn)

@@ -66,12 +66,16 @@ class DiscImage:
     drawable: np.ndarray
 
 
+def _cross(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """x x y of two 3-vectors (np.cross costs ~20x more on one pair)."""
+    return np.array([x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]])
+
+
 def _plane_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """An orthonormal basis (a, b) of the plane normal to the unit vector n, with a x b = n."""
-    helper = np.eye(3)[int(np.argmin(np.abs(n)))]
-    a = np.cross(helper, n)
-    a /= np.linalg.norm(a)
-    return a, np.cross(n, a)
+    a = _cross(np.eye(3)[int(np.argmin(np.abs(n)))], n)
+    a /= np.sqrt(a.dot(a))
+    return a, _cross(n, a)
 
 
 def disc_images(

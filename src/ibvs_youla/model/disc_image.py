@@ -67,7 +67,7 @@ class DiscImage:
 
 
 def _cross(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """x x y of two 3-vectors (np.cross costs ~20x more on one pair)."""
+    """The cross product x x y of two 3-vectors (np.cross costs ~20x more on one pair)."""
     return np.array([x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]])
 
 

@@ -34,7 +34,14 @@ from ..exceptions import InvalidParameterError
 from ..model.camera import PinholeCamera, StereoCamera
 from ..model.disc_image import DiscImage, disc_images
 
-__all__ = ["DiscMarkers", "ImagingSettings", "RenderedFrame", "check_camera_has_pixels", "render"]
+__all__ = [
+    "DiscMarkers",
+    "ImagingSettings",
+    "RenderedFrame",
+    "check_camera_has_pixels",
+    "render",
+    "render_unchecked",
+]
 
 EDGE_BAND_PX = 1.5  # supersample pixels whose centre is within this distance of an ellipse's edge [px]
 MIN_CURVATURE_RADIUS_PX = 4.0  # below this, every pixel of the ellipse's box is supersampled [px]

@@ -15,7 +15,7 @@ import pytest
 from ibvs_youla.analysis.detection_accuracy import detection_error_sweep
 from ibvs_youla.estimation.marker_detection import Blobs, DetectorSettings, associate, detect_blobs
 from ibvs_youla.exceptions import InvalidArrayError, InvalidParameterError
-from ibvs_youla.model.camera import default_camera
+from ibvs_youla.model.camera import PinholeCamera, default_camera
 from ibvs_youla.simulation.rendering import DiscMarkers, render
 
 CAMERA = default_camera()
@@ -137,3 +137,32 @@ def test_association_keeps_only_unique_candidates():
 def test_bad_detector_input_raises_by_name(call, error, match):
     with pytest.raises(error, match=match):
         call()
+
+
+def test_the_sweep_works_for_a_monocular_camera_too():
+    (row,) = detection_error_sweep(PinholeCamera.zed2(mode="VGA"), 0.05, (1.0,), (0.0,), 0.0, frames=1)
+    assert row["markers"] == 9 and row["detected"] == 1.0 and row["residual_max_px"] <= 0.03
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"depths": ()}, "depths"),
+        ({"depths": (1.0, -1.0)}, "depths"),
+        ({"blurs": (-0.5,)}, "blurs"),
+        ({"noise_sigma_grey": -1.0}, "noise_sigma_grey"),
+        ({"diameter": 0.0}, "diameter"),
+        ({"tilt_deg": 85.0}, "tilt_deg"),
+        ({"frames": 0}, "frames"),
+        ({"markers_per_frame": 10}, "markers_per_frame"),
+        ({"method": "sift"}, "method"),
+    ],
+)
+def test_the_sweep_rejects_bad_settings_by_name(kwargs, match):
+    with pytest.raises(InvalidParameterError, match=match):
+        detection_error_sweep(**kwargs)
+
+
+def test_the_sweep_needs_a_camera_with_pixels():
+    with pytest.raises(InvalidParameterError, match="no bounded view"):
+        detection_error_sweep(PinholeCamera.normalized())

@@ -38,7 +38,7 @@ __all__ = ["detection_error_sweep", "sweep_table"]
 GRID_SPAN = (0.6, 0.6)  # fraction of the image width and height the marker grid spans
 
 
-def _depths(value: Any, name: str, strictly_positive: bool) -> np.ndarray:
+def _values(value: Any, name: str, strictly_positive: bool) -> np.ndarray:
     arr = as_array(value, name).reshape(-1)
     if arr.size == 0 or np.any(arr <= 0.0 if strictly_positive else arr < 0.0):
         raise InvalidParameterError(
@@ -110,8 +110,8 @@ def detection_error_sweep(
             negative blur or noise, a tilt outside [0, 80] deg, too few frames or markers.
     """
     camera = check_camera_has_pixels(default_camera() if camera is None else camera)
-    depths = _depths(depths, "depths", True)
-    blurs = _depths(blurs, "blurs", False)
+    depths = _values(depths, "depths", True)
+    blurs = _values(blurs, "blurs", False)
     noise = non_negative(noise_sigma_grey, "noise_sigma_grey", unit="[grey levels]")
     diameter = positive(diameter, "diameter", unit="[m]")
     tilt_deg = non_negative(tilt_deg, "tilt_deg", unit="[deg]")

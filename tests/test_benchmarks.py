@@ -156,3 +156,20 @@ def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
     assert set(saved["targets"]["met"]) == {"scaling", "overhead_share", "free_1000x7_minutes"}
     assert saved["machine"]["cores"] >= 1 and saved["machine"]["date"]
     assert report["campaigns"]["free"]["scaling"] == saved["campaigns"]["free"]["scaling"]
+
+
+@pytest.mark.slow
+def test_detection_benchmark_writes_the_sweep_and_the_time_per_frame(tmp_path):
+    out = tmp_path / "detection.json"
+    report = load("bench_detection").main(["--frames", "1", "--repeats", "2", "--json", str(out)])
+    saved = json.loads(out.read_text())
+    rows = saved["sweeps"]["moments"]
+    assert len(rows) == 24 and {r["depth_m"] for r in rows} == {0.5, 1.0, 1.5, 2.0, 2.5, 3.0}
+    assert all(r["detected"] == 1.0 and r["residual_max_px"] < 0.3 for r in rows)
+    for mode in ("VGA", "HD720"):
+        timing = saved["timing"][mode]
+        for key in ("observe_median_ms", "observe_cpu_median_ms", "render_median_ms", "detect_median_ms"):
+            assert finite_positive(timing[key]), key
+        assert timing["stats"]["observe"]["n"] == 2
+    assert saved["timing"]["HD720"]["resolution"] == [1280, 720]
+    assert report["settings"]["diameter_m"] == 0.05

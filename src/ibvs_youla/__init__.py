@@ -32,6 +32,7 @@ _LAZY: dict[str, str] = {
     "EyeInHand": ".estimation.eye_in_hand",
     "rigid_transform_from_points": ".estimation.stereo_pose",
     "calibrate_hand_eye": ".estimation.hand_eye",
+    "DetectorSettings": ".estimation.marker_detection",
     # control
     "InnerLoopDesign": ".control.inner",
     "FeedforwardDesign": ".control.feedforward",
@@ -43,15 +44,22 @@ _LAZY: dict[str, str] = {
     "Beliefs": ".simulation.simulate",
     "SimulationSettings": ".simulation.settings",
     "SimulationResult": ".simulation.results",
+    "ImageSensor": ".simulation.image_sensor",
+    "DiscMarkers": ".simulation.rendering",
+    "ImagingSettings": ".simulation.rendering",
 }
 _SUBMODULES = {"scenarios", "model", "estimation", "control", "controllers", "simulation", "analysis"}
 
 __all__ = [
     "Arm",
     "Beliefs",
+    "DetectorSettings",
+    "DiscMarkers",
     "EyeInHand",
     "FeedforwardDesign",
     "IbvsYoulaError",
+    "ImageSensor",
+    "ImagingSettings",
     "InnerLoopDesign",
     "OuterLoopDesign",
     "PinholeCamera",
@@ -100,10 +108,13 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .control.singular_values import SingularValuePolicy
     from .estimation.eye_in_hand import EyeInHand
     from .estimation.hand_eye import calibrate_hand_eye
+    from .estimation.marker_detection import DetectorSettings
     from .estimation.stereo_pose import rigid_transform_from_points
     from .model.arm import Arm
     from .model.camera import PinholeCamera, StereoCamera, Visibility
     from .scenarios import Scenario
+    from .simulation.image_sensor import ImageSensor
+    from .simulation.rendering import DiscMarkers, ImagingSettings
     from .simulation.results import SimulationResult
     from .simulation.settings import SimulationSettings
     from .simulation.simulate import Beliefs, simulate

@@ -196,6 +196,11 @@ class _Sensor:
         """x_C of each lens centre [m]; features are one u per lens, then the shared v (cached)."""
         return (0.0,)
 
+    @property
+    def lens_x(self) -> tuple[float, ...]:
+        """x_C of each lens centre [m], in feature order: (+b/2, -b/2) stereo (ERRATA 12), (0,) pinhole."""
+        return self._lens_x
+
     def intrinsic_matrix(self) -> np.ndarray:
         """K of Eq. (6) in pixels: [[F/p, k, u0], [0, F/p, v0], [0, 0, 1]] (maps X/Z, Y/Z to pixels)."""
         f_px = self.focal_length / self.pixel_pitch

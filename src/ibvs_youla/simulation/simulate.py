@@ -2,7 +2,9 @@
 
 It assembles the four roles of :mod:`.loop` from a scenario and runs them:
 
-* **sensor** (:class:`~.sensor.MarkerSensor`): the *true* camera and markers;
+* **sensor** (:class:`~.sensor.MarkerSensor`): the *true* camera and markers; or, chosen by
+  ``sensor=``, what measures through them (:class:`~.image_sensor.ImageSensor`: rendered
+  images and detected centres; any wrapper of the true sensor);
 * **plant**: ``"dynamic"`` (the arm's rigid-body dynamics, Pinocchio ABA + RK4 with the
   torque held, :class:`~.plant.ArmPlant`), ``"kinematic"`` (an ideal inner loop,
   :class:`~.kinematic_arm.KinematicArmPlant`) or ``"free-camera"`` (no arm,
@@ -21,6 +23,7 @@ moves with ``q_true = q + d`` while the controller reads ``q``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,9 +47,10 @@ from .results import SimulationResult, software_versions
 from .sensor import MarkerSensor
 from .settings import SimulationSettings
 
-__all__ = ["PLANTS", "Beliefs", "default_camera", "simulate"]
+__all__ = ["PLANTS", "SENSORS", "Beliefs", "default_camera", "simulate"]
 
 PLANTS = ("dynamic", "kinematic", "free-camera")
+SENSORS = ("ideal", "images")
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,6 +131,7 @@ def simulate(
     settings: SimulationSettings | None = None,
     arm: Arm | None = None,
     beliefs: Beliefs | None = None,
+    sensor: str | Callable[[MarkerSensor], Any] | None = None,
     progress: bool = False,
 ) -> SimulationResult:
     """Simulate one scenario in closed loop and return every signal as data.
@@ -150,6 +155,13 @@ def simulate(
             free-flying camera the tick is the camera period.
         arm: The true arm; default ``Arm.irb4600()`` (not built for a free-camera scenario).
         beliefs: Where the controller's models differ from the truth (:class:`Beliefs`).
+        sensor: What measures each frame. None (or ``"ideal"``): the true projections,
+            :class:`~.sensor.MarkerSensor`; ``"images"``: rendered images and detected
+            centres with default settings, :class:`~.image_sensor.ImageSensor`; or a function
+            of the true ``MarkerSensor`` returning the sensor to use (an object with
+            ``measure(T_O_C, t) -> CameraFrame``; e.g. ``lambda truth: ImageSensor(truth,
+            DiscMarkers(0.04), ImagingSettings(blur_sigma_px=1.0))``, or a wrapper that disturbs
+            ``truth.measure``). The goal features stay the true projections at the target.
         progress: Show a progress bar (tqdm) on stderr.
 
     Returns:
@@ -160,8 +172,9 @@ def simulate(
         ``metadata["spec"]`` holds the full run specification.
 
     Raises:
-        InvalidParameterError: unknown controller or plant, non-positive duration, a
-            scenario, settings, arm, camera or beliefs of the wrong type, a free-camera
+        InvalidParameterError: unknown controller, plant or sensor, non-positive duration, a
+            scenario, settings, arm, camera or beliefs of the wrong type, a sensor function that
+            returns no sensor, a free-camera
             scenario on an arm plant, or a controller that cannot use the task (e.g. the
             paper's controller with a monocular camera).
         IncompatibleCommandError: the controller's command cannot drive the plant.
@@ -200,7 +213,8 @@ def simulate(
             duration,
             f"at least one tick of the {plant!r} plant, {world.dt:g} s (settings' rates)",
         )
-    sensor = MarkerSensor(camera, scenario.markers_O, virtual_points=scenario.virtual_points)
+    truth = MarkerSensor(camera, scenario.markers_O, virtual_points=scenario.virtual_points)
+    measuring = _sensor(sensor, truth)
     beliefs.check_against(scenario, camera, world.arm is not None)
     model_arm = None
     if world.arm is not None:
@@ -220,7 +234,7 @@ def simulate(
         camera=camera if beliefs.camera is None else beliefs.camera,
         markers_O=scenario.markers_O if beliefs.markers_O is None else beliefs.markers_O,
         # taught by showing: the goal is what the true camera saw at the true target pose
-        feature_target=sensor.features_at(world.T_O_C_target),
+        feature_target=truth.features_at(world.T_O_C_target),
         T_O_C_target=world.T_O_C_target,
         tick_period=world.dt,
         frame_period=world.dt * world.ticks_per_frame,
@@ -255,17 +269,20 @@ def simulate(
             f"({', '.join((*world.plant.signal_names, *command_signals))})",
         )
     metadata = _metadata(scenario, ctrl, plant, world, camera, settings, beliefs, n_ticks)
+    if measuring is not truth:  # recorded only when a sensor was chosen: undisturbed runs keep their metadata
+        describe = getattr(measuring, "spec", None)
+        metadata["spec"]["sensor"] = describe() if callable(describe) else type(measuring).__name__
     recorder = ResultRecorder(
         task.feature_target,
         world.T_O_C_target,
         n_ticks // record_every + 2,
-        n_points=sensor.n_points,
+        n_points=truth.n_points,
         signals=shapes,
         metadata=metadata,
     )
     loop = ServoLoop(
         ctrl,
-        sensor,
+        measuring,
         world.plant,
         chain,
         world.dt,
@@ -276,6 +293,31 @@ def simulate(
         command_signals,
     )
     return loop.run(progress, scenario.name or "simulate")
+
+
+def _sensor(sensor: Any, truth: MarkerSensor) -> Any:
+    """The sensor role: the truth, the image sensor, or what a sensor function makes of the truth."""
+    if sensor is None:
+        return truth
+    valid = f"None, {' or '.join(map(repr, SENSORS))}, or a function of the true MarkerSensor returning one"
+    if isinstance(sensor, str):
+        if sensor not in SENSORS:
+            raise InvalidParameterError("sensor", sensor, valid)
+        if sensor == "ideal":
+            return truth
+        from .image_sensor import ImageSensor
+
+        return ImageSensor(truth)
+    if not callable(sensor):
+        raise InvalidParameterError("sensor", type(sensor).__name__, valid)
+    made = sensor(truth)
+    if not callable(getattr(made, "measure", None)):
+        raise InvalidParameterError(
+            "sensor",
+            f"a function returning {type(made).__name__}",
+            "a function returning a sensor: an object with measure(T_O_C, t) -> CameraFrame",
+        )
+    return made
 
 
 def _controller(controller: Any, adaptive: bool, settings: SimulationSettings) -> Controller:

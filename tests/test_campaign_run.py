@@ -370,24 +370,32 @@ def test_runs_blamed_for_a_dead_worker_run_again_alone_and_only_the_killer_is_an
     assert rows["error"].iloc[1].startswith("KilledWorker: ") and rows["error"].iloc[0] == ""
 
 
+def _runs_done(log: Path) -> int:
+    """The last count of the progress bar in a stderr file ("campaign: ... 7/36 [...]")."""
+    import re
+
+    counts = re.findall(rf"(\d+)/{RUNS}\b", log.read_text(errors="replace")) if log.is_file() else []
+    return int(counts[-1]) if counts else 0
+
+
 def test_a_terminated_client_flushes_its_rows_and_resumes(tmp_path, reference, processes):
     """SIGTERM (a batch system's stop) acts as Ctrl-C: rows returned before it are written, exit 130."""
-    out = tmp_path / "terminated"
+    out, log = tmp_path / "terminated", tmp_path / "stderr.txt"
     command = [sys.executable, "-c", PYTHON_CLI, *CLI_ARGS, "--out", str(out), "--workers", "0"]
     command[command.index("--batch-rows") + 1] = "1000"  # nothing is written before the signal
-    first = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first_command = [arg for arg in command if arg != "--no-progress"]  # its bar counts the finished runs
+    with open(log, "w") as stderr:
+        first = subprocess.Popen(first_command, stdout=subprocess.DEVNULL, stderr=stderr, text=True)
     processes.append(first)
-    _wait_for(
-        lambda: (out / "campaign.json").is_file() or first.poll() is not None, 60, "the campaign to start"
-    )
-    time.sleep(1.0)  # some runs finish (~0.05 s each), none is written yet
-    assert _stored(out) == 0
+    _wait_for(lambda: _runs_done(log) >= 2 or first.poll() is not None, 120, "two runs to finish")
+    assert _stored(out) == 0  # finished, not written
     first.send_signal(signal.SIGTERM)
-    _, stderr = first.communicate(timeout=30)
+    first.wait(timeout=30)
     stored = _stored(out)
-    assert first.returncode == 130, stderr
-    assert 0 < stored < RUNS
-    assert stderr.strip() == (
+    assert first.returncode == 130, log.read_text()
+    assert 2 <= stored < RUNS
+    last_line = log.read_text().replace("\r", "\n").strip().splitlines()[-1]
+    assert last_line == (
         f"ibvs-youla: interrupted: {stored} of {RUNS} runs stored in {out}; rerun the same command to resume"
     )
     second = subprocess.run(command, capture_output=True, text=True, timeout=120, check=False)

@@ -27,12 +27,15 @@ down ``distributed.scheduler.allowed-failures`` (3) workers is stored as an ``"e
 environment, e.g. this package missing) is not stored: the campaign goes on, and the summary
 counts it so that a rerun retries it. Rows are flushed by :class:`~.storage.RowWriter` every
 ``batch_rows`` rows or ``batch_seconds`` seconds, and on Ctrl-C; rerunning the same campaign
-resumes it.
+resumes it: under the folder's lock it deletes what a killed client left half-written and sets
+aside a damaged part, saying so in one line on stderr (logger ``ibvs_youla.campaign.runner``),
+whose runs then run again (:func:`~.storage.recover`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import logging
 import math
 import os
 import signal
@@ -74,6 +77,7 @@ _FREE_DEFAULTS: dict[str, Any] = {
 FAMILY_DEFAULTS: dict[str, dict[str, Any]] = {
     family: _ARM_DEFAULTS if family in ARM_FAMILIES else _FREE_DEFAULTS for family in FAMILIES
 }
+_LOG = logging.getLogger(__name__)
 CONNECT_TIMEOUT_S = 10.0  # to reach an existing scheduler [s]
 TASKS_PER_THREAD = 4  # tasks in flight per worker thread (at least MIN_WINDOW in all)
 MIN_WINDOW = 32
@@ -325,6 +329,8 @@ def run_campaign(
     try:
         storage.create_folder(path, record)
         with storage.client_lock(path):
+            for note in storage.recover(path):  # what a killed client left: one line per part set aside
+                _LOG.warning("ibvs-youla: %s", note)
             done = storage.stored_keys(path)  # again, under the lock
             pending = [s for s in specs if s.key not in done]
             summary.stored_before = len(specs) - len(pending)
@@ -353,8 +359,6 @@ def run_campaign(
 
 def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any]:
     """A client of the existing scheduler, or of a new local cluster (and that cluster)."""
-    import logging
-
     from distributed import Client, LocalCluster
 
     if scheduler is None:

@@ -115,6 +115,7 @@ def read_rows(folder: str | Path) -> pd.DataFrame:
 
     Raises:
         InvalidParameterError: ``folder/rows`` missing or holding no row.
+        DamagedFileError: (an InvalidParameterError) a part does not read; the message names it.
     """
     from .storage import read_rows as read_stored_rows  # one reader: the storage's schema and parts
 

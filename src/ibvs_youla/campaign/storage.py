@@ -9,7 +9,7 @@ rows and never write):
   (:class:`CampaignStorageError`) before anything is written; the same definition resumes.
 * ``DIR/rows/part-<uuid>.parquet`` — the rows, one file per flushed batch, all with the schema
   :func:`arrow_schema` built from :data:`~.metrics.COLUMNS` (so a column that is empty or all
-  NaN in one batch keeps its type). Every file here is written by
+  NaN in one batch keeps its type), with a CRC per page (checked on reading). Every file here is written by
   :func:`ibvs_youla.files.atomic_write`: a hidden temporary file in the same folder
   (``.part-<uuid>.parquet.<uuid>.tmp``: skipped by pyarrow's, pandas', polars' and DuckDB's
   ``*.parquet`` discovery), flushed to disk, then renamed with :func:`os.replace`: a crash
@@ -186,7 +186,12 @@ def _read_part(part: Path, columns: list[str] | None = None) -> Any:
     import pyarrow.parquet as pq
 
     try:
-        return pq.read_table(part, columns=columns, schema=None if columns else arrow_schema())
+        return pq.read_table(
+            part,
+            columns=columns,
+            schema=None if columns else arrow_schema(),
+            page_checksum_verification=True,
+        )
     except Exception as err:  # whatever pyarrow raises for a file that is not a part of this schema
         detail = " ".join(f"{type(err).__name__}: {err}".split())[:300]
         raise DamagedFileError(
@@ -295,7 +300,7 @@ class RowWriter:
         table = pa.Table.from_pylist(self._buffer, schema=self._schema)
         path = self.rows_dir / f"part-{uuid.uuid4().hex}.parquet"
         with atomic_write(path) as stream:
-            pq.write_table(table, stream, compression="zstd")
+            pq.write_table(table, stream, compression="zstd", write_page_checksum=True)
         self.written += len(self._buffer)
         self.parts.append(path)
         self._buffer, self._since = [], None

@@ -182,21 +182,30 @@ def _parts(out_dir: str | os.PathLike[str]) -> list[Path]:
 
 
 def _read_part(part: Path, columns: list[str] | None = None) -> Any:
-    """One part as a pyarrow table with the rows' schema, or :class:`DamagedFileError`."""
+    """One part (its ``columns``, default all) as a pyarrow table of the rows' schema.
+
+    Raises:
+        DamagedFileError: unreadable, a page CRC that does not match, or a column missing.
+    """
     import pyarrow.parquet as pq
 
+    expected = "a Parquet part written by a campaign client"
     try:
-        return pq.read_table(
+        names = pq.read_schema(part).names
+        table = pq.read_table(
             part,
             columns=columns,
             schema=None if columns else arrow_schema(),
             page_checksum_verification=True,
         )
-    except Exception as err:  # whatever pyarrow raises for a file that is not a part of this schema
+    except Exception as err:  # whatever pyarrow raises for a file that is not a Parquet part
         detail = " ".join(f"{type(err).__name__}: {err}".split())[:300]
-        raise DamagedFileError(
-            part, f"not readable as rows ({detail})", "a Parquet part written by a campaign client"
-        ) from None
+        raise DamagedFileError(part, f"not readable as rows ({detail})", expected) from None
+    missing = [name for name in COLUMNS if name not in names]
+    if missing:
+        listed = ", ".join(missing[:4]) + (", ..." if len(missing) > 4 else "")
+        raise DamagedFileError(part, f"not rows of a campaign: no column {listed}", expected)
+    return table
 
 
 def stored_keys(out_dir: str | os.PathLike[str]) -> set[str]:

@@ -103,7 +103,7 @@ def _saved(
     differ = [name for name, (stored, asked) in wanted.items() if stored != asked]
     if differ:
         _LOG.warning(
-            "ibvs-youla: %s holds another run (its %s differ); simulating this run again",
+            "ibvs-youla: %s holds another run (different %s); simulating this run again",
             path,
             ", ".join(differ),
         )
@@ -170,6 +170,7 @@ def reproduce(
     settings: SimulationSettings | None = None,
     resume: bool = True,
     progress: bool = False,
+    plots: bool = True,
 ) -> Reproduction:
     """Simulate every variant of the given scenarios and write figures and the table.
 
@@ -193,6 +194,7 @@ def reproduce(
         resume: Reuse the runs already saved in ``out_dir/runs`` that are whole and match
             (scenario, controller, outer loop, settings, joint periods); the others run again.
         progress: Show progress bars.
+        plots: Draw Figures 13-16 (``figures/``); False writes the runs and the table only.
 
     Returns:
         The rows, the Markdown table and the written paths.
@@ -216,7 +218,7 @@ def reproduce(
         for folder in (out, out / "runs", out / "figures"):
             folder.mkdir(exist_ok=True)
             remove_temporaries(folder)  # what a killed job left half-written
-        rows, paths = _simulate_all(out, scenario_names, n_ticks, n_long, settings, resume, progress)
+        rows, paths = _simulate_all(out, scenario_names, n_ticks, n_long, settings, resume, progress, plots)
         run_s, long_s = n_ticks * settings.dt, n_long * settings.dt
         markdown = table_markdown(rows, run_s, long_s)
         paths["table_md"] = write_text(out / "table.md", markdown)
@@ -238,6 +240,7 @@ def _simulate_all(
     settings: SimulationSettings,
     resume: bool,
     progress: bool,
+    plots: bool,
 ) -> tuple[list[dict[str, Any]], dict[str, Path]]:
     """Every run (saved as it finishes), its row, and the figures of each scenario and outer loop."""
     arm = Arm.irb4600()
@@ -262,7 +265,8 @@ def _simulate_all(
                     )
                     extended = classify(long_result)
                 rows.append(table_row(result, outcome, extended, arm))
-            paths.update(_figures(out / "figures", name, adaptive, by_variant))
+            if plots:
+                paths.update(_figures(out / "figures", name, adaptive, by_variant))
     return rows, paths
 
 

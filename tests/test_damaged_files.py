@@ -330,3 +330,37 @@ def test_a_copy_of_a_whole_part_is_not_damaged(tmp_path):
     writer.add(_row("a"))
     shutil.copy(writer.parts[0], tmp_path / "rows" / "part-copy.parquet")
     assert storage.recover(tmp_path) == [] and list(storage.read_rows(tmp_path)["key"]) == ["a", "a"]
+
+
+def test_a_resumed_campaign_reruns_only_the_runs_of_a_damaged_part_and_says_so(tmp_path, caplog):
+    import logging
+
+    from ibvs_youla.campaign.runner import run_campaign
+
+    out = tmp_path / "campaign"
+    first = run_campaign(DEFINITION, out, workers=0, progress=False, batch_rows=1)  # one part per run
+    assert (first.runs, first.ran) == (2, 2)
+    rows = storage.read_rows(out).set_index("key").sort_index()
+    lost, kept = sorted((out / "rows").glob("part-*.parquet"))
+    _truncate(lost)
+    with caplog.at_level(logging.WARNING, logger="ibvs_youla.campaign.runner"):
+        again = run_campaign(DEFINITION, out, workers=0, progress=False)
+    notes = [r.getMessage() for r in caplog.records]
+    assert len(notes) == 1 and notes[0].startswith(f"ibvs-youla: {lost}: not readable as rows")
+    assert (again.stored_before, again.ran) == (1, 1) and kept.exists()  # only the lost run ran again
+    back = storage.read_rows(out).set_index("key").sort_index()
+    assert list(back.index) == list(rows.index)
+    assert back.drop(columns=["wall_s", "update_median_us", "update_p95_us"]).equals(
+        rows.drop(columns=["wall_s", "update_median_us", "update_p95_us"])
+    )
+    # every run stored, and a foreign file among the parts: set aside without running anything
+    _random_bytes(out / "rows" / "part-foreign.parquet")
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="ibvs_youla.campaign.runner"):
+        last = run_campaign(DEFINITION, out, workers=0, progress=False)
+    assert (
+        last.ran == 0
+        and len(caplog.records) == 1
+        and "part-foreign.parquet" in caplog.records[0].getMessage()
+    )
+    assert (out / "rows" / ".part-foreign.parquet.damaged").exists() and len(storage.read_rows(out)) == 2

@@ -321,7 +321,10 @@ def run_campaign(
     specs = definition.specs()
     done = storage.stored_keys(path) if path.is_dir() else set()
     summary = CampaignSummary(path, len(specs), sum(s.key in done for s in specs))
-    if summary.stored_before == len(specs):
+    if summary.stored_before == len(specs):  # nothing to run: only tidy what a killed client left
+        with storage.client_lock(path):
+            _recover(path)
+            summary.other_rows = len(storage.stored_keys(path) - {s.key for s in specs})
         summary.wall_s = time.perf_counter() - t_start
         return summary
     client, cluster = (None, None) if workers == 0 else _connect(scheduler, workers)
@@ -329,8 +332,7 @@ def run_campaign(
     try:
         storage.create_folder(path, record)
         with storage.client_lock(path):
-            for note in storage.recover(path):  # what a killed client left: one line per part set aside
-                _LOG.warning("ibvs-youla: %s", note)
+            _recover(path)
             done = storage.stored_keys(path)  # again, under the lock
             pending = [s for s in specs if s.key not in done]
             summary.stored_before = len(specs) - len(pending)
@@ -355,6 +357,14 @@ def run_campaign(
             cluster.close()
     summary.wall_s = time.perf_counter() - t_start
     return summary
+
+
+def _recover(path: Path) -> None:
+    """Under the lock: delete a killed client's temporaries, set damaged parts aside (one line each)."""
+    from . import storage
+
+    for note in storage.recover(path):
+        _LOG.warning("ibvs-youla: %s", note)
 
 
 def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any]:

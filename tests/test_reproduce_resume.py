@@ -124,3 +124,28 @@ def test_temporaries_of_a_killed_job_are_removed_under_the_lock(done, tmp_path):
         path.write_bytes(b"half a file")
     reproduce(out, **ARGS)
     assert not any(p.exists() for p in left)
+
+
+def test_a_whole_result_whose_metadata_lacks_the_run_keys_is_foreign(done, tmp_path, caplog):
+    import numpy as np
+
+    source, rep = done
+    out = tmp_path / "out"
+    shutil.copytree(source, out)
+    path = out / "runs" / f"{KEYS[2]}.npz"
+    SimulationResult(
+        t=[0.0],
+        camera_pose=[np.eye(4)],
+        camera_pose_target=np.eye(4),
+        features=np.zeros((1, 9)),
+        feature_target=np.zeros(9),
+        visible=np.ones((1, 3), bool),
+        metadata={"scenario": "paper-2"},
+    ).save(path)
+    with caplog.at_level(logging.WARNING, logger=LOGGER):
+        again = reproduce(out, **ARGS)
+    assert _notes(caplog) == [
+        f"ibvs-youla: {path} holds another run (different controller, adaptive, plant, virtual_points, "
+        "joint periods, settings); simulating this run again"
+    ]
+    assert _without_timing(again.rows) == _without_timing(rep.rows)

@@ -97,6 +97,7 @@ def _saved(
         "controller": (meta.get("controller"), controller),
         "adaptive": (meta.get("adaptive"), adaptive),
         "plant": (meta.get("plant"), "dynamic"),
+        "virtual_points": (meta.get("virtual_points"), get_scenario(scenario_name).virtual_points),
         "joint periods": (stored_ticks, n_ticks),
         "settings": (meta.get("settings"), json.loads(json.dumps(settings.to_dict()))),
     }

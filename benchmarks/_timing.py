@@ -57,6 +57,8 @@ def machine() -> dict[str, Any]:
 
 
 def write_json(path: str | None, report: dict[str, Any]) -> None:
-    """Write the report as indented JSON (no-op without a path)."""
+    """Write the report as indented JSON, atomically (no-op without a path)."""
+    from ibvs_youla.files import write_text
+
     if path:
-        Path(path).write_text(json.dumps(report, indent=2, sort_keys=False) + "\n")
+        write_text(path, json.dumps(report, indent=2, sort_keys=False) + "\n")

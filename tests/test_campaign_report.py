@@ -15,7 +15,7 @@ from scipy.spatial.transform import Rotation
 
 from ibvs_youla.campaign import report
 from ibvs_youla.campaign.cases import generate_cases
-from ibvs_youla.campaign.metrics import COLUMNS, OUTCOMES
+from ibvs_youla.campaign.metrics import COLUMNS, LATER_COLUMNS, OUTCOMES
 from ibvs_youla.campaign.run import run_spec
 from ibvs_youla.campaign.spec import specs_for
 from ibvs_youla.cli import campaign_report
@@ -238,6 +238,7 @@ def test_command_refuses_bad_axes(capsys):
 
 def test_rows_stored_before_a_column_existed_read_it_as_missing(rows, tmp_path):
     old = rows.drop(columns=["final_jacobian_sigma"])  # a part written by the previous version
+    assert LATER_COLUMNS == {"final_jacobian_sigma"}
     folder = write_rows(tmp_path / "old", old)
     again = report.read_rows(folder)
     assert list(again.columns) == list(COLUMNS) and again["final_jacobian_sigma"].isna().all()

@@ -29,8 +29,9 @@ from ibvs_youla.campaign import runner
 from ibvs_youla.campaign.definition import CampaignDefinition
 from ibvs_youla.campaign.metrics import COLUMNS
 from ibvs_youla.campaign.runner import run_campaign
-from ibvs_youla.campaign.storage import RowWriter, read_rows, stored_keys
+from ibvs_youla.campaign.storage import RowWriter, create_folder, read_rows, stored_keys
 from ibvs_youla.exceptions import InvalidParameterError
+from ibvs_youla.files import WRITE_DELAY_ENV, is_temporary
 from ibvs_youla.simulation.results import SimulationResult
 
 CONTROLLERS = ("ibvs-current", "pbvs", "ibvs-desired")
@@ -402,6 +403,74 @@ def test_a_terminated_client_flushes_its_rows_and_resumes(tmp_path, reference, p
     assert second.returncode == 0, second.stderr
     assert f"{stored} stored before, {RUNS - stored} run on this process" in second.stdout
     assert_same_rows(read_rows(out), reference[1])
+
+
+def _temporaries(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.glob(".*") if is_temporary(p.name)) if folder.is_dir() else []
+
+
+def _no_delay() -> dict[str, str]:
+    return {k: v for k, v in os.environ.items() if k != WRITE_DELAY_ENV}
+
+
+@pytest.mark.slow
+def test_a_client_killed_inside_a_write_resumes_and_a_second_client_is_refused(
+    tmp_path, reference, processes
+):
+    """Extends the test above: the kill lands inside a part's write, and a second client meets the lock."""
+    out = tmp_path / "locked"
+    create_folder(out, CampaignDefinition(**DEFINITION).to_dict())  # so the first delayed write is a part
+    command = [sys.executable, "-c", PYTHON_CLI, *CLI_ARGS, "--out", str(out), "--workers", "0"]
+    first = subprocess.Popen(
+        command,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**_no_delay(), WRITE_DELAY_ENV: "120"},  # its first part stays half-written
+    )
+    processes.append(first)
+    lock = out / ".lock"
+
+    def writing() -> bool:
+        return (
+            lock.exists() and lock.read_text().strip() == str(first.pid) and bool(_temporaries(out / "rows"))
+        )
+
+    _wait_for(writing, 120, "the first client inside a write")
+    run = {"capture_output": True, "text": True, "timeout": 120, "check": False, "env": _no_delay()}
+    second = subprocess.run(command, **run)
+    assert second.returncode == 1 and _one_line(second.stderr) == (
+        f"ibvs-youla: error: {out}: another client (pid {first.pid}) is running this campaign "
+        "(it holds .lock)"
+    )
+    first.send_signal(signal.SIGKILL)
+    first.communicate(timeout=30)
+    (half,) = _temporaries(out / "rows")
+    assert _stored(out) == 0
+    third = subprocess.run(command, **run)
+    assert third.returncode == 0, third.stderr
+    assert f"0 stored before, {RUNS} run on this process" in third.stdout  # the dead client's lock was free
+    assert not half.exists() and not _temporaries(out / "rows")
+    assert_same_rows(read_rows(out), reference[1])
+
+
+@pytest.mark.slow
+def test_two_clients_started_together_store_every_row_once(tmp_path, reference, processes):
+    out = tmp_path / "together"
+    command = [sys.executable, "-c", PYTHON_CLI, *CLI_ARGS, "--out", str(out), "--workers", "0"]
+    env = {**_no_delay(), WRITE_DELAY_ENV: "0.05"}
+    both = [
+        subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        for _ in range(2)
+    ]
+    processes.extend(both)
+    finished = [(proc.communicate(timeout=180)[1], proc.returncode) for proc in both]
+    assert 0 in [code for _, code in finished]
+    for stderr, code in finished:
+        if code != 0:  # refused at the lock: one line, exit 1
+            assert code == 1 and "is running this campaign (it holds .lock)" in _one_line(stderr)
+    assert_same_rows(read_rows(out), reference[1])
+    assert not _temporaries(out) and not _temporaries(out / "rows")
 
 
 # ----------------------------------------------------------------------------- bad input

@@ -16,7 +16,9 @@ from typing import Any
 __all__ = [
     "CalibrationError",
     "ConfigError",
+    "DamagedFileError",
     "DegenerateMarkersError",
+    "FolderLockedError",
     "IbvsYoulaError",
     "IncompatibleCommandError",
     "InvalidArrayError",
@@ -72,6 +74,51 @@ class InvalidParameterError(IbvsYoulaError, ValueError):
 
 class ConfigError(InvalidParameterError):
     """A key of a TOML configuration file is unknown or has an invalid value."""
+
+
+class DamagedFileError(InvalidParameterError):
+    """A file that the library reads is damaged, foreign or of an unknown format version.
+
+    Damaged: a directory, empty, truncated, corrupted (a CRC or decompression error); foreign:
+    another kind of file, or one missing a part; or a format version this library does not read.
+
+    It derives from :class:`InvalidParameterError` (the file is the argument ``path``), so code
+    that catches that keeps working.
+
+    Attributes:
+        path: The file.
+        problem: What is wrong with it, e.g. ``"empty (0 bytes)"``.
+        expected: What it should be, e.g. ``"a file written by SimulationResult.save"``.
+    """
+
+    def __init__(self, path: Any, problem: str, expected: str) -> None:
+        self.name = "path"
+        self.value = str(path)
+        self.valid = expected
+        self.path = path
+        self.problem = problem
+        self.expected = expected
+        Exception.__init__(self, f"{path}: {problem}; expected {expected}")
+
+
+class FolderLockedError(IbvsYoulaError):
+    """Another process is writing the output folder: it holds the folder's lock file.
+
+    Attributes:
+        folder: The output folder.
+        lock: Its lock file.
+        pid: Process id of the holder, as written in the lock file (None if it was unreadable).
+    """
+
+    def __init__(self, folder: Any, lock: Any, pid: int | None) -> None:
+        self.folder = folder
+        self.lock = lock
+        self.pid = pid
+        holder = "another process" if pid is None else f"another process (pid {pid})"
+        super().__init__(
+            f"{folder}: {holder} is writing this folder (it holds {lock}); "
+            "wait for it to finish, or choose another output folder"
+        )
 
 
 class JointLimitError(IbvsYoulaError, ValueError):

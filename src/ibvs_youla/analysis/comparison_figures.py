@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..files import save_figure, write_text
 from .compare import CONVERGED_DEG, CONVERGED_MM
 from .metrics import pose_error_series_mm_deg
 from .plots import draw_marker_trajectories
@@ -193,11 +194,11 @@ def save_comparison(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"table.md": out / "table.md", "table.json": out / "table.json"}
-    paths["table.md"].write_text(comparison.table_markdown())
-    paths["table.json"].write_text(json.dumps(comparison.to_dict(), indent=1))
+    write_text(paths["table.md"], comparison.table_markdown())
+    write_text(paths["table.json"], json.dumps(comparison.to_dict(), indent=1))
     if plots:
         (out / "figures").mkdir(exist_ok=True)
         for name, fig in plot_comparison(comparison).items():
             paths[name] = out / "figures" / f"{name}.png"
-            fig.savefig(paths[name], dpi=dpi)
+            save_figure(fig, paths[name], dpi=dpi)
     return paths

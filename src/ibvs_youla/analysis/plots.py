@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..exceptions import InvalidArrayError, InvalidParameterError
+from ..files import save_figure
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
@@ -381,7 +382,7 @@ def save_result_figures(
     paths = {}
     for name, fig in plot_result(result, arm, camera).items():
         paths[name] = out / f"{name}.png"
-        fig.savefig(paths[name], dpi=dpi)
+        save_figure(fig, paths[name], dpi=dpi)
     return paths
 
 

@@ -39,6 +39,7 @@ from .cases import MIN_JACOBIAN_SIGMA
 
 __all__ = [
     "COLUMNS",
+    "LATER_COLUMNS",
     "OUTCOMES",
     "REACHED_DEG",
     "REACHED_MM",
@@ -99,6 +100,8 @@ COLUMNS: dict[str, type] = {
     "wall_s": float,
     "spec": str,
 }
+# columns added after the first stored campaigns: a part written before reads them as missing (NaN)
+LATER_COLUMNS = frozenset({"final_jacobian_sigma"})
 
 
 def _base(spec: Any, wall_s: float) -> dict[str, Any]:

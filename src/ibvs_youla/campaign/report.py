@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..exceptions import InvalidParameterError
+from ..files import save_figure, write_text
 from .figures import (
     AXES,
     DEFAULT_AXES,
@@ -70,6 +71,7 @@ def read_rows(folder: str | Path) -> pd.DataFrame:
 
     Raises:
         InvalidParameterError: ``folder/rows`` missing or holding no row.
+        DamagedFileError: (an InvalidParameterError) a part does not read; the message names it.
     """
     from .storage import read_rows as read_stored_rows  # one reader: the storage's schema and parts
 
@@ -200,13 +202,13 @@ def write_report(rows: pd.DataFrame, out: str | Path, axes: Any = DEFAULT_AXES) 
         "method's runs, 95 % Wilson interval in brackets; time to reach and path ratio over the reached "
         "runs (pose within 1 mm and 0.1 deg to the end).\n\n"
     )
-    paths["table.md"].write_text(caption + table_markdown(summaries))
+    write_text(paths["table.md"], caption + table_markdown(summaries))
     data = {
         "runs": len(rows),
         "families": sorted(set(rows["family"])),
         "methods": [_json_ready(asdict(s)) for s in summaries],
     }
-    paths["table.json"].write_text(json.dumps(data, indent=1, allow_nan=False) + "\n")
+    write_text(paths["table.json"], json.dumps(data, indent=1, allow_nan=False) + "\n")
     for family in sorted(set(rows["family"])):
         part = rows[rows["family"] == family]
         figures = {
@@ -217,6 +219,6 @@ def write_report(rows: pd.DataFrame, out: str | Path, axes: Any = DEFAULT_AXES) 
         for name, fig in figures.items():
             if fig is not None:
                 path = out / "figures" / f"{family}_{name}.png"
-                fig.savefig(path, dpi=110)
+                save_figure(fig, path, dpi=110)
                 paths[path.name] = path
     return paths

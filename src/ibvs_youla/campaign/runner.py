@@ -22,12 +22,16 @@ environment, e.g. this package missing) is not stored: the campaign goes on, and
 counts it so that a rerun retries it. Rows are flushed by :class:`~.storage.RowWriter` every
 ``batch_rows`` rows or ``batch_seconds`` seconds, and on Ctrl-C or SIGTERM (which the client
 turns into ``KeyboardInterrupt`` while it runs, so a batch system's stop request loses no
-returned row); rerunning the same campaign resumes it.
+returned row); rerunning the same campaign resumes it: under the folder's lock it deletes what
+a killed client left half-written and sets aside a damaged part, saying so in one line on
+stderr (logger ``ibvs_youla.campaign.runner``), whose runs then run again
+(:func:`~.storage.recover`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import logging
 import math
 import os
 import signal
@@ -53,6 +57,7 @@ __all__ = [
     "run_campaign",
 ]
 
+_LOG = logging.getLogger(__name__)
 CONNECT_TIMEOUT_S = 10.0  # to reach an existing scheduler [s]
 TASKS_PER_THREAD = 4  # tasks in flight per worker thread (at least MIN_WINDOW in all)
 MIN_WINDOW = 32
@@ -163,7 +168,10 @@ def run_campaign(
     specs = definition.specs()
     done = storage.stored_keys(path) if path.is_dir() else set()
     summary = CampaignSummary(path, len(specs), sum(s.key in done for s in specs))
-    if summary.stored_before == len(specs):
+    if summary.stored_before == len(specs):  # nothing to run: only tidy what a killed client left
+        with storage.client_lock(path):
+            _recover(path)
+            summary.other_rows = len(storage.stored_keys(path) - {s.key for s in specs})
         summary.wall_s = time.perf_counter() - t_start
         return summary
     with _sigterm_interrupts():  # SIGTERM flushes the returned rows, as Ctrl-C does
@@ -172,6 +180,7 @@ def run_campaign(
         try:
             storage.create_folder(path, record)
             with storage.client_lock(path):
+                _recover(path)
                 done = storage.stored_keys(path)  # again, under the lock
                 pending = [s for s in specs if s.key not in done]
                 summary.stored_before = len(specs) - len(pending)
@@ -198,10 +207,16 @@ def run_campaign(
     return summary
 
 
+def _recover(path: Path) -> None:
+    """Under the lock: delete a killed client's temporaries, set damaged parts aside (one line each)."""
+    from . import storage
+
+    for note in storage.recover(path):
+        _LOG.warning("ibvs-youla: %s", note)
+
+
 def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any]:
     """A client of the existing scheduler, or of a new local cluster (and that cluster)."""
-    import logging
-
     from distributed import Client, LocalCluster
 
     if scheduler is None:

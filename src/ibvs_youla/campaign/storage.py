@@ -9,16 +9,21 @@ rows and never write):
   (:class:`CampaignStorageError`) before anything is written; the same definition resumes.
 * ``DIR/rows/part-<uuid>.parquet`` — the rows, one file per flushed batch, all with the schema
   :func:`arrow_schema` built from :data:`~.metrics.COLUMNS` (so a column that is empty or all
-  NaN in one batch keeps its type). A batch is written to a hidden temporary file in
-  ``DIR/rows`` (``.part-<uuid>.parquet.tmp``: skipped by pyarrow's, pandas', polars' and
-  DuckDB's ``*.parquet`` discovery), flushed to disk, then renamed with :func:`os.replace`:
-  a crash loses at most the rows of the batch not yet renamed, never leaves a half-written
-  part. ``pandas.read_parquet(DIR + "/rows")`` reads every row.
-* ``DIR/series/<key>.npz`` — optional full time series (``SimulationResult.save``), one per
-  run, written the same way (temporary name, then renamed).
-* ``DIR/.lock`` — held (``fcntl.flock``) by the running client, so that a second client on the
-  same folder is refused instead of storing duplicate rows; the system releases it when the
-  client dies, whatever kills it.
+  NaN in one batch keeps its type), with a CRC per page (checked on reading). Every file here is written by
+  :func:`ibvs_youla.files.atomic_write`: a hidden temporary file in the same folder
+  (``.part-<uuid>.parquet.<uuid>.tmp``: skipped by pyarrow's, pandas', polars' and DuckDB's
+  ``*.parquet`` discovery), flushed to disk, then renamed with :func:`os.replace`: a crash
+  loses at most the rows of the batch not yet renamed, never leaves a half-written part.
+  ``pandas.read_parquet(DIR + "/rows")`` reads every row.
+* ``DIR/series/<key>.npz`` — optional full time series (``SimulationResult.save``, atomic too),
+  one per run.
+* ``DIR/.lock`` — held by the running client (:func:`ibvs_youla.files.folder_lock`: ``flock``,
+  with its pid in the file), so that a second client on the same folder is refused instead
+  of storing duplicate rows; the system releases it when the client dies, whatever kills it.
+
+A resuming client (:func:`recover`, under the lock) deletes the temporary files of a killed
+client and sets aside a part that does not read as rows of this schema (renamed to the hidden
+``.<name>.damaged``, which no reader lists): its runs count as not stored and run again.
 """
 
 from __future__ import annotations
@@ -32,8 +37,9 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-from ..exceptions import IbvsYoulaError
-from .metrics import COLUMNS
+from ..exceptions import DamagedFileError, FolderLockedError, IbvsYoulaError
+from ..files import LOCK_FILE, atomic_write, folder_lock, is_temporary, remove_temporaries, write_text
+from .metrics import COLUMNS, LATER_COLUMNS
 
 __all__ = [
     "DEFINITION_FILE",
@@ -46,6 +52,7 @@ __all__ = [
     "create_folder",
     "read_definition",
     "read_rows",
+    "recover",
     "save_series",
     "stored_keys",
 ]
@@ -53,7 +60,6 @@ __all__ = [
 DEFINITION_FILE = "campaign.json"
 ROWS_DIR = "rows"
 SERIES_DIR = "series"
-LOCK_FILE = ".lock"
 FORMAT = 1  # version of the folder layout, stored in campaign.json
 _KNOWN = {DEFINITION_FILE, ROWS_DIR, SERIES_DIR, LOCK_FILE}
 
@@ -84,14 +90,27 @@ def _canonical(definition: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def read_definition(out_dir: str | os.PathLike[str]) -> dict[str, Any] | None:
-    """The stored definition of ``out_dir``, or None when it holds none."""
+    """The stored definition of ``out_dir``, or None when it holds none.
+
+    Raises:
+        DamagedFileError: ``campaign.json`` is a folder, is not UTF-8 JSON, or is not a
+            definition (no ``format`` key, or another format than :data:`FORMAT`).
+    """
     path = Path(out_dir) / DEFINITION_FILE
-    if not path.is_file():
+    if not path.exists():
         return None
+    expected = f"a campaign definition of format {FORMAT} (JSON, written by 'ibvs-youla campaign')"
+    if path.is_dir():
+        raise DamagedFileError(path, "a directory, not a file", expected)
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
+        stored = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError) as err:
-        raise CampaignStorageError(Path(out_dir), f"{DEFINITION_FILE} is unreadable ({err})") from None
+        raise DamagedFileError(path, f"unreadable ({type(err).__name__}: {err})", expected) from None
+    if not isinstance(stored, dict) or "format" not in stored:
+        raise DamagedFileError(path, "a JSON value with no 'format' key", expected)
+    if stored["format"] != FORMAT:
+        raise DamagedFileError(path, f"format {stored['format']!r}", expected)
+    return stored
 
 
 def check_folder(out_dir: str | os.PathLike[str], definition: Mapping[str, Any]) -> bool:
@@ -106,7 +125,8 @@ def check_folder(out_dir: str | os.PathLike[str], definition: Mapping[str, Any])
         raise CampaignStorageError(path, "is a file, not a campaign folder")
     stored = read_definition(path)
     if stored is None:
-        others = sorted(p.name for p in path.iterdir() if p.name not in _KNOWN) if path.is_dir() else []
+        names = [p.name for p in path.iterdir()] if path.is_dir() else []
+        others = sorted(n for n in names if n not in _KNOWN and not is_temporary(n))
         if others:
             listed = ", ".join(others[:3]) + (", ..." if len(others) > 3 else "")
             raise CampaignStorageError(
@@ -128,83 +148,117 @@ def _short(value: Any, limit: int = 60) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def _write_atomically(path: Path, data: bytes) -> None:
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
-    with open(tmp, "wb") as stream:
-        stream.write(data)
-        stream.flush()
-        os.fsync(stream.fileno())
-    os.replace(tmp, path)
-
-
 def create_folder(out_dir: str | os.PathLike[str], definition: Mapping[str, Any]) -> Path:
     """Make ``out_dir/rows`` and write the definition if absent (after :func:`check_folder`)."""
     path = Path(out_dir)
     existing = check_folder(path, definition)
     (path / ROWS_DIR).mkdir(parents=True, exist_ok=True)
     if not existing:
-        text = json.dumps(_canonical(definition), indent=1, sort_keys=True) + "\n"
-        _write_atomically(path / DEFINITION_FILE, text.encode())
+        write_text(
+            path / DEFINITION_FILE, json.dumps(_canonical(definition), indent=1, sort_keys=True) + "\n"
+        )
     return path
 
 
 @contextlib.contextmanager
 def client_lock(out_dir: str | os.PathLike[str]) -> Iterator[None]:
-    """Hold ``out_dir/.lock`` while the block runs (POSIX ``flock``; a no-op where there is none).
+    """Hold ``out_dir/.lock`` while the block runs (:func:`ibvs_youla.files.folder_lock`).
 
     Raises:
-        CampaignStorageError: another client holds the lock.
+        CampaignStorageError: another client holds the lock (the message names its pid).
     """
     try:
-        import fcntl
-    except ImportError:  # Windows: no advisory lock, one client per folder is up to the user
-        yield
-        return
-    with open(Path(out_dir) / LOCK_FILE, "a") as stream:
-        try:
-            fcntl.flock(stream.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise CampaignStorageError(
-                Path(out_dir), "another client is running this campaign (its .lock is held)"
-            ) from None
-        try:
+        with folder_lock(out_dir):
             yield
-        finally:
-            fcntl.flock(stream.fileno(), fcntl.LOCK_UN)
+    except FolderLockedError as err:
+        holder = "another client" if err.pid is None else f"another client (pid {err.pid})"
+        raise CampaignStorageError(
+            Path(out_dir), f"{holder} is running this campaign (it holds {LOCK_FILE})"
+        ) from None
 
 
 def _parts(out_dir: str | os.PathLike[str]) -> list[Path]:
     return sorted((Path(out_dir) / ROWS_DIR).glob("part-*.parquet"))
 
 
-def stored_keys(out_dir: str | os.PathLike[str]) -> set[str]:
-    """The keys of the rows stored in ``out_dir/rows`` (temporary files are ignored)."""
+def _read_part(part: Path, columns: list[str] | None = None) -> Any:
+    """One part (its ``columns``, default all) as a pyarrow table of the rows' schema.
+
+    Raises:
+        DamagedFileError: unreadable, a page CRC that does not match, or a column missing.
+    """
     import pyarrow.parquet as pq
 
+    expected = "a Parquet part written by a campaign client"
+    try:
+        names = pq.read_schema(part).names
+        table = pq.read_table(
+            part,
+            columns=columns,
+            schema=None if columns else arrow_schema(),
+            page_checksum_verification=True,
+        )
+    except Exception as err:  # whatever pyarrow raises for a file that is not a Parquet part
+        detail = " ".join(f"{type(err).__name__}: {err}".split())[:300]
+        raise DamagedFileError(part, f"not readable as rows ({detail})", expected) from None
+    missing = [name for name in COLUMNS if name not in names and name not in LATER_COLUMNS]
+    if missing:
+        listed = ", ".join(missing[:4]) + (", ..." if len(missing) > 4 else "")
+        raise DamagedFileError(part, f"not rows of a campaign: no column {listed}", expected)
+    return table
+
+
+def stored_keys(out_dir: str | os.PathLike[str]) -> set[str]:
+    """The keys of the rows stored in ``out_dir/rows``; a part that does not read counts as no rows.
+
+    Temporary files are ignored; :func:`recover` sets damaged parts aside.
+    """
     keys: set[str] = set()
     for part in _parts(out_dir):
-        keys.update(pq.read_table(part, columns=["key"]).column("key").to_pylist())
+        with contextlib.suppress(DamagedFileError):
+            keys.update(_read_part(part, ["key"]).column("key").to_pylist())
     return keys
 
 
 def read_rows(out_dir: str | os.PathLike[str]) -> Any:
-    """Every stored row as a pandas DataFrame with the columns of :data:`~.metrics.COLUMNS`."""
+    """Every stored row as a pandas DataFrame with the columns of :data:`~.metrics.COLUMNS`.
+
+    Raises:
+        DamagedFileError: a part does not read as rows of this schema (it names the part).
+    """
     import pyarrow as pa
-    import pyarrow.parquet as pq
 
     schema = arrow_schema()
-    tables = [pq.read_table(part, schema=schema) for part in _parts(out_dir)]
+    tables = [_read_part(part) for part in _parts(out_dir)]
     return (pa.concat_tables(tables) if tables else schema.empty_table()).to_pandas()
+
+
+def recover(out_dir: str | os.PathLike[str]) -> list[str]:
+    """Tidy what a killed client left (module docstring); return one line per file set aside.
+
+    Only under :func:`client_lock`. Deletes temporary files in the folder, ``rows`` and
+    ``series``; renames every part that does not read (whole, with the rows' schema) to
+    ``rows/.<name>.damaged``, so that its runs run again.
+    """
+    path = Path(out_dir)
+    for folder in (path, path / ROWS_DIR, path / SERIES_DIR):
+        remove_temporaries(folder)
+    notes = []
+    for part in _parts(path):
+        try:
+            _read_part(part)
+        except DamagedFileError as err:
+            aside = part.with_name(f".{part.name}.damaged")
+            os.replace(part, aside)
+            notes.append(f"{part}: {err.problem}; set aside as {aside.name}, its runs run again")
+    return notes
 
 
 def save_series(out_dir: str | os.PathLike[str], key: str, result: Any) -> Path:
     """Write one run's :class:`~ibvs_youla.simulation.results.SimulationResult` to ``series/<key>.npz``."""
     folder = Path(out_dir) / SERIES_DIR
     folder.mkdir(exist_ok=True)
-    tmp = result.save(folder / f".{key}.{uuid.uuid4().hex}.tmp.npz")
-    path = folder / f"{key}.npz"
-    os.replace(tmp, path)
-    return path
+    return result.save(folder / f"{key}.npz")
 
 
 class RowWriter:
@@ -246,21 +300,16 @@ class RowWriter:
         return max(0.0, self.batch_seconds - (time.monotonic() - self._since))
 
     def flush(self) -> Path | None:
-        """Write the waiting rows as one part (temporary file, fsync, rename); None if none wait."""
+        """Write the waiting rows as one part (atomically: module docstring); None if none wait."""
         if not self._buffer:
             return None
         import pyarrow as pa
         import pyarrow.parquet as pq
 
         table = pa.Table.from_pylist(self._buffer, schema=self._schema)
-        name = f"part-{uuid.uuid4().hex}.parquet"
-        tmp = self.rows_dir / f".{name}.tmp"
-        with open(tmp, "wb") as stream:
-            pq.write_table(table, stream, compression="zstd")
-            stream.flush()
-            os.fsync(stream.fileno())
-        path = self.rows_dir / name
-        os.replace(tmp, path)
+        path = self.rows_dir / f"part-{uuid.uuid4().hex}.parquet"
+        with atomic_write(path) as stream:
+            pq.write_table(table, stream, compression="zstd", write_page_checksum=True)
         self.written += len(self._buffer)
         self.parts.append(path)
         self._buffer, self._since = [], None

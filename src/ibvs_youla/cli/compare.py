@@ -14,6 +14,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from ..files import write_text
 from .base import UsageError
 
 
@@ -98,8 +99,8 @@ def _run_suite(args: argparse.Namespace) -> int:
         f"{suites.NOMINAL_HALF_VIEW:g}) or went behind the camera.\n\n"
     )
     table = report.table_markdown()
-    (out / "suite.md").write_text(caption + table)
-    (out / "suite.json").write_text(json.dumps(report.to_dict(), indent=1))
+    write_text(out / "suite.md", caption + table)
+    write_text(out / "suite.json", json.dumps(report.to_dict(), indent=1))
     for t, comparison in zip(report.tasks, report.comparisons, strict=True):
         save_comparison(comparison, out / t.name, plots=not args.no_plots)
     print(caption + table, end="")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..files import save_figure
 from .base import load_optional_config
 
 DESIGNS = ("inner", "feedforward", "outer", "all")
@@ -37,6 +38,6 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
         args.out.mkdir(parents=True, exist_ok=True)
         for w in which:
             path = args.out / f"{w}.png"
-            plot_design_of(designs[w]).savefig(path, dpi=110)
+            save_figure(plot_design_of(designs[w]), path, dpi=110)
             print(f"wrote {path}")
     return 0

@@ -82,6 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
         "duration apply",
     )
     p.add_argument("--no-resume", action="store_true", help="simulate again even if runs are saved in --out")
+    p.add_argument("--no-plots", action="store_true", help="skip Figures 13-16 (runs and table only)")
     p.set_defaults(func=reproduce.run)
 
     p = sub.add_parser(

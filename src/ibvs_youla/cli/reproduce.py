@@ -43,7 +43,9 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
         settings=settings,
         resume=not args.no_resume,
         progress=True,
+        plots=not args.no_plots,
     )
     print(rep.table_markdown)
-    print(f"wrote {len(rep.paths)} files under {args.out}: table.md, table.json, figures/, runs/")
+    figures = "" if args.no_plots else " figures/,"
+    print(f"wrote {len(rep.paths)} files under {args.out}: table.md, table.json,{figures} runs/")
     return 0

@@ -14,6 +14,7 @@ from typing import Any
 
 from .. import scenarios as _scenarios
 from ..exceptions import SimulationDivergedError
+from ..files import write_text
 from .base import PROG, UsageError, load_optional_config, one_line
 
 
@@ -69,7 +70,7 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
         return 1
     path = result.save(out / "result.npz")
     text, summary = _summary(result, arm)
-    (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    write_text(out / "summary.json", json.dumps(summary, indent=1))
     written = [path.name, "summary.json"]
     if not args.no_plots:
         from ..analysis.plots import save_result_figures

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 
-from ..exceptions import IbvsYoulaError
+from ..exceptions import DamagedFileError, IbvsYoulaError
 from .base import UsageError
 from .simulate import resolve_run
+
+_ARM_RUN_KEYS = ("q_start", "q_target", "markers_O", "joint_offset", "scenario", "virtual_points")
 
 
 def run(args: argparse.Namespace, extra: list[str]) -> int:
@@ -33,6 +35,13 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
             raise UsageError("view: give either --result FILE or --scenario/--config, not both")
         result = SimulationResult.load(args.result)
         m = result.metadata
+        missing = [k for k in _ARM_RUN_KEYS if k not in m]
+        if missing:
+            raise DamagedFileError(
+                args.result,
+                f"its metadata has no {', '.join(missing)}",
+                "a saved run of the arm (view plays those)",
+            )
         scenario = Scenario(
             m["q_start"],
             m["q_target"],

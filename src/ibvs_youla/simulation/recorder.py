@@ -124,7 +124,7 @@ class ResultRecorder:
     def result(
         self, *, status: str = "complete", extra_metadata: dict[str, Any] | None = None
     ) -> SimulationResult:
-        """The samples recorded so far as a :class:`SimulationResult` (copies).
+        """The samples recorded so far as a :class:`SimulationResult` (which copies them).
 
         Args:
             status: One of :data:`~.results.STATUSES`, stored as ``metadata["status"]``.
@@ -137,12 +137,10 @@ class ResultRecorder:
         m, n_features, n_points = len(frame_t), self.feature_target.shape[0], self._tick["visible"].shape[1]
         metadata = {**self.metadata, **normalise_metadata(extra_metadata), "status": status}
         return SimulationResult(
-            **{name: buf[:n].copy() for name, buf in self._tick.items()},
-            feature_target=self.feature_target.copy(),
-            camera_pose_target=self.camera_pose_target.copy(),
-            signals={
-                name: buf[:n].copy() for name, buf in zip(self.signal_names, self._signals, strict=True)
-            },
+            **{name: buf[:n] for name, buf in self._tick.items()},
+            feature_target=self.feature_target,
+            camera_pose_target=self.camera_pose_target,
+            signals={name: buf[:n] for name, buf in zip(self.signal_names, self._signals, strict=True)},
             frame_t=np.array(frame_t, dtype=float),
             frame_features=np.array(frame_features, dtype=float).reshape(m, n_features),
             frame_visible=np.array(frame_visible, dtype=bool).reshape(m, n_points),

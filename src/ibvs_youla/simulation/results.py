@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 import zipfile
+import zlib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -19,7 +20,8 @@ import numpy as np
 
 from .._geometry import pose_error_mm_deg
 from .._validation import as_array, as_pose
-from ..exceptions import InvalidArrayError, InvalidParameterError
+from ..exceptions import DamagedFileError, IbvsYoulaError, InvalidArrayError, InvalidParameterError
+from ..files import atomic_write
 
 __all__ = ["STATUSES", "SimulationResult", "normalise_metadata", "software_versions"]
 
@@ -27,6 +29,8 @@ FORMAT_VERSION = 2  # 1: fixed three-marker stereo schema with q_ff/q_fb fields 
 STATUSES = ("complete", "markers_lost", "estimate_failed", "diverged", "interrupted")
 _LEGACY_SIGNALS = ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau")  # format 1's joint signals
 _SIGNAL_PREFIX = "signal/"
+_ZIP_MAGIC = b"PK\x03\x04"  # every .npz archive starts with a zip local file header
+_EXPECTED = "a file written by SimulationResult.save (an .npz archive with a JSON header)"
 
 
 def software_versions() -> dict[str, str]:
@@ -80,7 +84,9 @@ class SimulationResult:
     (``q_ff``, ``q_fb`` for the paper's). Each signal reads as an attribute too
     (``result.q_ff``). The frame log (M frames) holds capture times, features, visibility
     and the compute time of each control update. NaN is allowed in recorded signals;
-    shapes are checked.
+    shapes are checked. A result owns its arrays: it stores copies of the ones it is given
+    and exposes them read-only (``writeable=False``), so nothing written later, by the
+    caller or by a reader, can change what it holds or saves.
 
     Attributes:
         t: Sample times (N,) [s].
@@ -116,20 +122,22 @@ class SimulationResult:
     metadata: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        set_ = object.__setattr__
+        def set_(name: str, value: np.ndarray) -> None:
+            object.__setattr__(self, name, _owned(value))
+
         t = as_array(self.t, "t", (None,))
         n = t.shape[0]
-        set_(self, "t", t)
+        set_("t", t)
         target = as_array(self.feature_target, "feature_target", (None,))
         m = target.shape[0]
-        set_(self, "feature_target", target)
-        set_(self, "camera_pose_target", as_pose(self.camera_pose_target, "camera_pose_target"))
-        set_(self, "camera_pose", _shaped(self.camera_pose, "camera_pose", (n, 4, 4)))
-        set_(self, "features", _shaped(self.features, "features", (n, m)))
+        set_("feature_target", target)
+        set_("camera_pose_target", as_pose(self.camera_pose_target, "camera_pose_target"))
+        set_("camera_pose", _shaped(self.camera_pose, "camera_pose", (n, 4, 4)))
+        set_("features", _shaped(self.features, "features", (n, m)))
         visible = np.asarray(self.visible, dtype=bool)
         if visible.ndim != 2 or visible.shape[0] != n:
             raise InvalidArrayError("visible", f"an array of shape {visible.shape}", f"shape ({n}, n_points)")
-        set_(self, "visible", visible)
+        set_("visible", visible)
         n_points = visible.shape[1]
         if not isinstance(self.signals, dict):
             raise InvalidParameterError(
@@ -140,27 +148,36 @@ class SimulationResult:
             arr = as_array(value, f"signals[{name!r}]", finite=False)
             if arr.ndim == 0 or arr.shape[0] != n:
                 raise InvalidArrayError(f"signals[{name!r}]", f"an array of shape {arr.shape}", f"({n}, ...)")
-            signals[str(name)] = arr
-        set_(self, "signals", signals)
+            signals[str(name)] = _owned(arr)
+        object.__setattr__(self, "signals", signals)
         frame_t = np.zeros(0) if self.frame_t is None else as_array(self.frame_t, "frame_t", (None,))
         k = frame_t.shape[0]
-        set_(self, "frame_t", frame_t)
+        set_("frame_t", frame_t)
         frame_features = np.zeros((k, m)) if self.frame_features is None else self.frame_features
-        set_(self, "frame_features", _shaped(frame_features, "frame_features", (k, m)))
+        set_("frame_features", _shaped(frame_features, "frame_features", (k, m)))
         frame_visible = np.ones((k, n_points), bool) if self.frame_visible is None else self.frame_visible
         frame_visible = np.asarray(frame_visible, dtype=bool)
         if frame_visible.shape != (k, n_points):
             raise InvalidArrayError(
                 "frame_visible", f"an array of shape {frame_visible.shape}", f"shape ({k}, {n_points})"
             )
-        set_(self, "frame_visible", frame_visible)
+        set_("frame_visible", frame_visible)
         update_time = (
             np.zeros(k) if self.update_time is None else as_array(self.update_time, "update_time", (None,))
         )
         if k and update_time.shape != (k,):
             raise InvalidArrayError("update_time", f"an array of shape {update_time.shape}", f"shape ({k},)")
-        set_(self, "update_time", update_time)
-        set_(self, "metadata", normalise_metadata(self.metadata))
+        set_("update_time", update_time)
+        object.__setattr__(self, "metadata", normalise_metadata(self.metadata))
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickled (e.g. returned by a Dask worker): the arrays are read-only again."""
+        for value in state.values():
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+        for value in state.get("signals", {}).values():
+            value.flags.writeable = False
+        self.__dict__.update(state)
 
     def __getattr__(self, name: str) -> np.ndarray:
         """A recorded signal by name, e.g. ``result.q`` or ``result.q_ff``."""
@@ -222,7 +239,11 @@ class SimulationResult:
         return arrays
 
     def save(self, path: str | os.PathLike[str]) -> Path:
-        """Write every array and the metadata (as a JSON string) to one ``.npz`` file.
+        """Write every array and the metadata (as a JSON string) to one ``.npz`` file, atomically.
+
+        The archive goes to a temporary file in the same folder, which is renamed over
+        ``path`` once complete (:func:`ibvs_youla.files.atomic_write`): ``path`` holds the
+        previous file or this result, never a part of one.
 
         Args:
             path: Destination; ``.npz`` is appended when the name has another or no suffix.
@@ -235,15 +256,21 @@ class SimulationResult:
             path = path.with_name(path.name + ".npz")
         header = {"format_version": FORMAT_VERSION, "metadata": self.metadata}
         meta = np.array(json.dumps(header, default=_json_default, allow_nan=True))
-        np.savez_compressed(path, __metadata__=meta, **self._arrays())
+        with atomic_write(path) as stream:
+            np.savez_compressed(stream, __metadata__=meta, **self._arrays())
         return path
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> SimulationResult:
-        """Read a result written by :meth:`save` (``path`` with or without ``.npz``), any format version.
+        """Read a result written by :meth:`save` (``path`` with or without ``.npz``), format 1 or 2.
 
         Raises:
-            InvalidParameterError: the file is missing or is not a saved result.
+            InvalidParameterError: there is no file at ``path`` (nor at ``path`` + ``.npz``).
+            DamagedFileError: (an :class:`InvalidParameterError`) the file is not a whole saved
+                result: a directory, empty, not a zip archive, truncated, corrupted (CRC or
+                decompression), a header that is not JSON or lacks ``metadata``, missing
+                arrays, arrays that do not fit together, or an unknown format version. The
+                message names the file and what is wrong.
         """
         path = Path(path)
         if not path.exists() and path.with_name(path.name + ".npz").exists():
@@ -252,47 +279,33 @@ class SimulationResult:
             raise InvalidParameterError(
                 "path", str(path), "an existing file written by SimulationResult.save"
             )
-        valid = "a file written by SimulationResult.save (an .npz archive with a JSON header)"
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                arrays = {name: data[name] for name in data.files}
-            header = json.loads(str(arrays.pop("__metadata__")))
-            if not isinstance(header, dict) or not isinstance(header.get("metadata"), dict):
-                raise ValueError("the JSON header has no 'metadata' object")
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
-            raise InvalidParameterError("path", str(path), f"{valid}; reading it failed: {exc}") from None
+        arrays, header = _read_archive(path)
         version = header.get("format_version")
-        if version == 1:
-            return cls._from_format_1(path, arrays, header["metadata"])
-        if version != FORMAT_VERSION:
-            raise InvalidParameterError(
-                "format_version", version, f"1 or {FORMAT_VERSION} (the formats this library reads)"
+        if version not in (1, FORMAT_VERSION):
+            raise DamagedFileError(
+                path,
+                f"format version {version!r}",
+                f"format 1 or {FORMAT_VERSION} (the formats this library reads)",
             )
-        names = [f.name for f in fields(cls) if f.name not in ("metadata", "signals")]
+        if version == 1:
+            names = ["t", *_LEGACY_SIGNALS, "features", "feature_target", "camera_pose"]
+            names += ["camera_pose_target", "visible", "update_time"]
+        else:
+            names = [f.name for f in fields(cls) if f.name not in ("metadata", "signals")]
         missing = [n for n in names if n not in arrays]
         if missing:
-            raise InvalidParameterError("path", str(path), f"a saved SimulationResult (missing {missing})")
-        signals = {k[len(_SIGNAL_PREFIX) :]: v for k, v in arrays.items() if k.startswith(_SIGNAL_PREFIX)}
-        return cls(**{n: arrays[n] for n in names}, signals=signals, metadata=header["metadata"])
+            raise DamagedFileError(path, f"missing the arrays {missing} (format {version})", _EXPECTED)
+        try:
+            if version == 1:
+                return cls._from_format_1(arrays, header["metadata"])
+            signals = {k[len(_SIGNAL_PREFIX) :]: v for k, v in arrays.items() if k.startswith(_SIGNAL_PREFIX)}
+            return cls(**{n: arrays[n] for n in names}, signals=signals, metadata=header["metadata"])
+        except IbvsYoulaError as err:
+            raise DamagedFileError(path, f"its arrays do not form a result ({err})", _EXPECTED) from None
 
     @classmethod
-    def _from_format_1(
-        cls, path: Path, arrays: dict[str, np.ndarray], metadata: dict[str, Any]
-    ) -> SimulationResult:
+    def _from_format_1(cls, arrays: dict[str, np.ndarray], metadata: dict[str, Any]) -> SimulationResult:
         """Format 1: fixed fields, no frame log (``feature_error`` was stored; it is derived now)."""
-        required = [
-            "t",
-            *_LEGACY_SIGNALS,
-            "features",
-            "feature_target",
-            "camera_pose",
-            "camera_pose_target",
-            "visible",
-            "update_time",
-        ]
-        missing = [n for n in required if n not in arrays]
-        if missing:
-            raise InvalidParameterError("path", str(path), f"a saved SimulationResult (missing {missing})")
         return cls(
             t=arrays["t"],
             camera_pose=arrays["camera_pose"],
@@ -304,6 +317,48 @@ class SimulationResult:
             update_time=arrays["update_time"],
             metadata={"plant": "dynamic", **metadata},
         )
+
+
+def _read_archive(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """The arrays and the JSON header of a saved result, or a :class:`DamagedFileError` saying why not."""
+    if path.is_dir():
+        raise DamagedFileError(path, "a directory, not a file", _EXPECTED)
+    with open(path, "rb") as stream:
+        head = stream.read(len(_ZIP_MAGIC))
+    if not head:
+        raise DamagedFileError(path, "empty (0 bytes)", _EXPECTED)
+    if head != _ZIP_MAGIC:
+        raise DamagedFileError(path, f"not an .npz (zip) archive: it starts with {head!r}", _EXPECTED)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {name: data[name] for name in data.files}
+    except zlib.error as exc:
+        raise DamagedFileError(
+            path, f"corrupted: compressed data does not decompress ({exc})", _EXPECTED
+        ) from None
+    except zipfile.BadZipFile as exc:
+        what = (
+            "corrupted: a CRC check failed" if "CRC" in str(exc) else "not a whole zip archive (truncated?)"
+        )
+        raise DamagedFileError(path, f"{what} ({exc})", _EXPECTED) from None
+    except Exception as exc:  # whatever a damaged archive makes numpy or zipfile raise
+        raise DamagedFileError(path, f"unreadable ({type(exc).__name__}: {exc})", _EXPECTED) from None
+    if "__metadata__" not in arrays:
+        raise DamagedFileError(path, "no __metadata__ entry (the JSON header)", _EXPECTED)
+    try:
+        header = json.loads(str(arrays.pop("__metadata__")))
+    except ValueError as exc:
+        raise DamagedFileError(path, f"its header is not JSON ({exc})", _EXPECTED) from None
+    if not isinstance(header, dict) or not isinstance(header.get("metadata"), dict):
+        raise DamagedFileError(path, "its JSON header has no 'metadata' object", _EXPECTED)
+    return arrays, header
+
+
+def _owned(value: np.ndarray) -> np.ndarray:
+    """A read-only copy of ``value`` that no caller holds a reference to."""
+    owned = np.array(value, copy=True)
+    owned.flags.writeable = False
+    return owned
 
 
 def _shaped(value: Any, name: str, shape: tuple[int, ...]) -> np.ndarray:

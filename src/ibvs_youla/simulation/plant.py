@@ -63,8 +63,9 @@ class DivergenceBounds:
     position_margin: float = 2.0 * math.pi
 
     def __post_init__(self) -> None:
-        positive(self.speed_factor, "speed_factor")
-        positive(self.position_margin, "position_margin", unit="rad")
+        set_ = object.__setattr__
+        set_(self, "speed_factor", positive(self.speed_factor, "speed_factor"))
+        set_(self, "position_margin", positive(self.position_margin, "position_margin", unit="rad"))
 
 
 class ArmPlant:

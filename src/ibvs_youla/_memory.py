@@ -68,5 +68,6 @@ def size_text(n_bytes: float) -> str:
     """A size in bytes for a message: ``"7.11 PB"``, ``"512 MB"``."""
     for unit, size in (("EB", 2**60), ("PB", 2**50), ("TB", 2**40), ("GB", 2**30), ("MB", 2**20)):
         if n_bytes >= size:
-            return f"{n_bytes / size:.3g} {unit}"
+            x = n_bytes / size
+            return f"{x:.0f} {unit}" if 1000 <= x < 1e6 else f"{x:.3g} {unit}"
     return f"{n_bytes:.3g} bytes"

@@ -209,12 +209,12 @@ def real(
 def _range_text(unit: str, low: float | None, high: float | None, low_open: bool, high_open: bool) -> str:
     u = f" {unit}" if unit else ""
     if low is not None and high is not None:
-        return f"a real number in {'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}{u}"
+        return f"a number in {'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}{u}"
     if low is not None:
-        return f"a finite real number {'>' if low_open else '>='} {low:g}{u}"
+        return f"a finite number {'>' if low_open else '>='} {low:g}{u}"
     if high is not None:
-        return f"a finite real number {'<' if high_open else '<='} {high:g}{u}"
-    return f"a finite real number [{unit}]" if unit else "a finite real number"
+        return f"a finite number {'<' if high_open else '<='} {high:g}{u}"
+    return f"a finite number [{unit}]" if unit else "a finite number"
 
 
 def positive(value: Any, name: str, *, unit: str = "") -> float:

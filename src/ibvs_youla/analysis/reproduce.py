@@ -17,16 +17,18 @@ paper's claims come true; the table and :func:`findings` state what was measured
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .._validation import positive
+from .._validation import flag, instance, non_negative, one_of, positive
 from ..controllers.youla import VARIANTS
 from ..exceptions import InvalidParameterError, SimulationDivergedError
 from ..model.arm import Arm
+from ..scenarios import NAMES
 from ..scenarios import get as get_scenario
 from ..simulation.results import SimulationResult
 from ..simulation.settings import SimulationSettings
@@ -162,8 +164,15 @@ def reproduce(
         The rows, the Markdown table and the written paths.
     """
     duration = positive(duration, "duration", unit="s")
-    if not scenario_names:
-        raise InvalidParameterError("scenario_names", scenario_names, "one or more scenario names")
+    diagnosis_duration = non_negative(diagnosis_duration, "diagnosis_duration", unit="s")
+    if isinstance(scenario_names, str) or not isinstance(scenario_names, (list, tuple)) or not scenario_names:
+        raise InvalidParameterError("scenario_names", scenario_names, "a list of one or more scenario names")
+    for name in scenario_names:
+        one_of(name, "scenario", NAMES)  # before anything is written
+    if settings is not None:
+        instance(settings, "settings", SimulationSettings, "a SimulationSettings or None")
+    resume, progress = flag(resume, "resume"), flag(progress, "progress")
+    instance(out_dir, "out_dir", (str, os.PathLike), "a folder path (str or pathlib.Path)")
     settings = SimulationSettings.paper() if settings is None else settings
     out = Path(out_dir)
     (out / "runs").mkdir(parents=True, exist_ok=True)

@@ -89,7 +89,7 @@ class OuterLoopDesign:
         set_ = object.__setattr__
         tau = InnerLoopDesign(self.tau_in).tau_in
         w_min, w_max = OMEGA_N_TAU_IN_MIN / tau, 1.0 / tau
-        valid = f"a real number in [{OMEGA_N_TAU_IN_MIN:g}/tau_in, 1/tau_in = {w_max:g}) rad/s (Section 6.3)"
+        valid = f"a number in [{OMEGA_N_TAU_IN_MIN:g}/tau_in, 1/tau_in = {w_max:g}) rad/s (Section 6.3)"
         try:
             w = real(self.omega_n, "omega_n", low=w_min, high=w_max, high_open=True)
         except InvalidParameterError:

@@ -77,7 +77,7 @@ from typing import Any
 import numpy as np
 import qpsolvers
 
-from .._validation import non_negative, one_of, positive
+from .._validation import integer, non_negative, one_of, positive
 from ..exceptions import InvalidParameterError
 from ..model.camera import StereoCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
@@ -120,9 +120,7 @@ def _image_box(camera: Any, half_extent: float, margin: float) -> tuple[np.ndarr
 
 
 def _horizon(value: Any) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise InvalidParameterError("horizon", value, "an integer >= 1 [frames]")
-    return int(value)
+    return integer(value, "horizon", low=1, unit="[frames]")
 
 
 class MpcIBVS(Controller):
@@ -175,7 +173,7 @@ class MpcIBVS(Controller):
         self.omega_max = positive(omega_max, "omega_max", unit="rad/s")
         self.margin = non_negative(margin, "margin")
         self.image_half_extent = positive(image_half_extent, "image_half_extent")
-        if solver not in qpsolvers.available_solvers:
+        if not isinstance(solver, str) or solver not in qpsolvers.available_solvers:
             raise InvalidParameterError(
                 "solver",
                 solver,

@@ -158,7 +158,7 @@ class YoulaController(Controller):
         unknown = sorted(set(gains) - set(YoulaSettings.field_names()))
         if unknown:
             raise InvalidParameterError(
-                ", ".join(unknown), unknown, f"keywords among {', '.join(YoulaSettings.field_names())}"
+                "gains", unknown, f"keywords among {', '.join(YoulaSettings.field_names())}"
             )
         base = YoulaSettings() if settings is None else settings
         self.settings = YoulaSettings(

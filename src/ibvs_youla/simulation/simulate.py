@@ -26,7 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import one_of, positive
+from .._memory import fits_in_memory
+from .._validation import flag, one_of, positive
 from ..controllers import Controller, ServoTask, YoulaSettings, make, names, uses_youla_settings
 from ..controllers.base import CommandType
 from ..estimation.stereo_pose import check_marker_geometry
@@ -181,12 +182,10 @@ def simulate(
         if not (isinstance(value, kind) or (value is None and name != "scenario")):
             valid = " or ".join(k.__name__ for k in (kind if isinstance(kind, tuple) else (kind,)))
             raise InvalidParameterError(name, type(value).__name__, f"a {valid}")
-    for flag, value in (("adaptive", adaptive), ("progress", progress)):
-        if not isinstance(value, (bool, np.bool_)):
-            raise InvalidParameterError(flag, value, "True or False")
+    adaptive, progress = flag(adaptive, "adaptive"), flag(progress, "progress")
     settings = SimulationSettings() if settings is None else settings
     beliefs = Beliefs() if beliefs is None else beliefs
-    ctrl = _controller(controller, bool(adaptive), settings)
+    ctrl = _controller(controller, adaptive, settings)
     camera = default_camera() if camera is None else camera
     if plant == "free-camera":
         world = _free_camera_world(scenario, arm, settings)
@@ -194,7 +193,7 @@ def simulate(
         arm = Arm.irb4600() if arm is None else arm
         world = _arm_world(scenario, plant, arm, settings)
     n_ticks = round(duration / world.dt)
-    if n_ticks < 1:
+    if n_ticks < 1 or duration < world.dt * (1.0 - 1e-9):  # no silent zero-step (or rounded-up) run
         raise InvalidParameterError(
             "duration",
             duration,
@@ -254,11 +253,19 @@ def simulate(
             f"names other than the plant's and the commands' "
             f"({', '.join((*world.plant.signal_names, *command_signals))})",
         )
+    n_rows, n_frames = n_ticks // record_every + 2, n_ticks // world.ticks_per_frame + 1
+    fits_in_memory(
+        ResultRecorder.estimate_bytes(n_rows, n_frames, task.feature_target.size, sensor.n_points, shapes),
+        "duration",
+        duration,
+        f"a shorter duration or a larger settings.record_every (now {record_every}: {n_rows:.3g} samples "
+        f"of {n_ticks:.3g} ticks are kept, and all {n_frames:.3g} camera frames)",
+    )
     metadata = _metadata(scenario, ctrl, plant, world, camera, settings, beliefs, n_ticks)
     recorder = ResultRecorder(
         task.feature_target,
         world.T_O_C_target,
-        n_ticks // record_every + 2,
+        n_rows,
         n_points=sensor.n_points,
         signals=shapes,
         metadata=metadata,
@@ -350,6 +357,13 @@ def _arm_world(scenario: Scenario, plant: str, arm: Arm, settings: SimulationSet
         )
     scenario.validate_for(arm)
     dt = settings.dt
+    if dt > settings.tau_in:
+        raise InvalidParameterError(
+            "settings.joint_rate_hz",
+            settings.joint_rate_hz,
+            f">= 1/tau_in = {1.0 / settings.tau_in:g} Hz on an arm plant: the inner loop (Eq. (33)-(46)) "
+            "runs at the joint rate and needs a period <= tau_in",
+        )
     if plant == "dynamic":
         world_plant: Any = ArmPlant(
             arm,

@@ -220,7 +220,9 @@ def test_settling_time_of_a_very_damped_design_is_finite_and_right():
     assert poles[1].real == pytest.approx(-2e9, rel=1e-12)
 
 
-@pytest.mark.parametrize("zeta", [1e-6, 0.05, 0.5, 0.999, 1.0, 1.0 + 1e-9, 1.001, 3.0, 1e4, 1e12])
+@pytest.mark.parametrize(
+    "zeta", [1e-6, 0.05, 0.5, 0.999, 1.0, 1.0 + 1e-9, 1.001, 3.0, 100.0, 1e3, 1e4, 1e5, 1e6, 1e7, 1e9, 1e12]
+)
 def test_settling_time_is_the_last_exit_from_the_band(zeta):
     """|y - 1| = 0.02 at the returned time and <= 0.02 on a dense grid of the next periods."""
     d = OuterLoopDesign(omega_n=10.0, zeta=zeta)
@@ -325,8 +327,16 @@ def test_fuzz_simulation_settings(**kwargs):
     assert 0.0 < s.omega_n * s.tau_in < 1.0 and 0.0 < s.smooth_speed_fraction <= 1.0
 
 
+DECADES = st.floats(min_value=-7.0, max_value=13.0).map(lambda k: 10.0**k)  # log-uniform over the range
+
+
 @FUZZ
-@given(tau_in=POSITIVE, omega_n=POSITIVE, zeta=POSITIVE, threshold=st.one_of(FRACTION, ANY))
+@given(
+    tau_in=POSITIVE,
+    omega_n=st.one_of(POSITIVE, DECADES),
+    zeta=st.one_of(POSITIVE, DECADES),
+    threshold=st.one_of(FRACTION, ANY, DECADES),
+)
 def test_fuzz_outer_design_and_its_settling_time(tau_in, omega_n, zeta, threshold):
     d = _must_build_or_raise(OuterLoopDesign, omega_n=omega_n, zeta=zeta, tau_in=tau_in)
     if d is None:
@@ -396,3 +406,125 @@ def test_fuzz_tolerances_bounds_and_actuators(image_m, position_mm, window, spee
     act = _must_build_or_raise(ActuatorParameters, r=r, J_a=J_a)
     if act is not None:
         assert type(act.r) is float and type(act.J_a) is float
+
+
+@FUZZ
+@given(
+    tau_in=POSITIVE,
+    omega_n=POSITIVE,
+    zeta=POSITIVE,
+    tau_forward=st.one_of(st.none(), POSITIVE),
+    feedforward=ANY,
+    linearize_at=ANY,
+    branch_prior=ANY,
+    estimate_from_image=ANY,
+)
+def test_fuzz_youla_settings(**kwargs):
+    s = _must_build_or_raise(YoulaSettings, **kwargs)
+    if s is not None:
+        assert all(type(getattr(s, name)) is float for name in REAL_FIELDS)
+        assert type(s.estimate_from_image) is bool and type(s.feedforward) is str
+
+
+LENS_NUMBER = st.one_of(ANY, st.floats(min_value=1e-6, max_value=1e-2))
+
+
+@FUZZ
+@given(
+    focal_length=LENS_NUMBER,
+    sensor_width=LENS_NUMBER,
+    pixel_pitch=st.one_of(ANY, st.floats(min_value=1e-7, max_value=1e-5)),
+    baseline=st.one_of(ANY, st.floats(min_value=0.01, max_value=1.0)),
+    skew=st.one_of(ANY, st.floats(min_value=-10.0, max_value=10.0)),
+    principal_point=st.one_of(ANY, st.tuples(POSITIVE, POSITIVE)),
+    depth_range=st.one_of(ANY, st.tuples(FRACTION, POSITIVE)),
+    frame_rate=POSITIVE,
+    name=ANY,
+    unbounded_view=ANY,
+)
+def test_fuzz_cameras(baseline, **kwargs):
+    from ibvs_youla.model.camera import PinholeCamera, StereoCamera
+
+    for build, extra in ((PinholeCamera, {}), (StereoCamera, {"baseline": baseline})):
+        cam = _must_build_or_raise(build, sensor_height=2e-3, **kwargs, **extra)
+        if cam is None:
+            continue
+        for name in ("focal_length", "sensor_width", "pixel_pitch", "skew", "frame_rate"):
+            assert type(getattr(cam, name)) is float and math.isfinite(getattr(cam, name)), name
+        assert all(type(v) is float for v in (*cam.principal_point, *cam.depth_range))
+        assert type(cam.unbounded_view) is bool and type(cam.name) is str
+
+
+PARAMS = {
+    "fb": ("adaptive", "settings", "zeta", "omega_n", "feedforward"),
+    "ff+fb": ("adaptive", "tau_forward", "smooth_speed_fraction", "sv_policy"),
+    "ibvs-current": ("gain",),
+    "pbvs": ("gain",),
+    "2.5d": ("gain", "rotation_from", "reference_point"),
+    "hybrid": ("gain", "margin", "start_mode", "min_dwell"),
+    "mpc-ibvs": ("horizon", "q_weight", "r_weight", "v_max", "margin", "solver", "fallback"),
+}
+
+
+@FUZZ
+@given(data=st.data(), name=st.sampled_from(sorted(PARAMS)))
+def test_fuzz_controller_parameters(data, name):
+    """make(name, **params) with arbitrary values: a controller, or a typed error."""
+    from ibvs_youla import controllers
+
+    keys = data.draw(st.lists(st.sampled_from(PARAMS[name]), unique=True, max_size=3))
+    params = {k: data.draw(st.one_of(ANY, POSITIVE), label=k) for k in keys}
+    ctrl = _must_build_or_raise(controllers.make, name=name, **params)
+    if ctrl is not None:
+        spec = ctrl.spec()
+        assert spec["name"] == name
+
+
+@FUZZ
+@given(
+    cases=POSITIVE,
+    seed=st.one_of(ANY, st.integers(min_value=0, max_value=5)),
+    duration=POSITIVE,
+    difficulty=POSITIVE,
+    camera=st.one_of(ANY, st.sampled_from(["stereo", "mono", "normalized"])),
+    zeta=POSITIVE,
+)
+def test_fuzz_campaign_definition(cases, seed, duration, difficulty, camera, zeta):
+    from ibvs_youla.campaign.runner import CampaignDefinition
+
+    d = _must_build_or_raise(
+        CampaignDefinition,
+        family="free-planar",
+        cases=cases,
+        controllers=("ibvs-current",),
+        seed=seed,
+        duration=duration,
+        difficulty=difficulty,
+        camera=camera,
+        settings={"zeta": zeta},
+    )
+    if d is not None:
+        assert type(d.cases) is int and type(d.seed) is int
+        assert type(d.duration) is float and type(d.difficulty) is float
+
+
+@FUZZ
+@given(
+    rotation_deg=POSITIVE,
+    retreat_m=st.one_of(ANY, FRACTION),
+    lateral_m=st.one_of(ANY, st.tuples(FRACTION, ANY)),
+)
+def test_fuzz_gans_task(rotation_deg, retreat_m, lateral_m):
+    from ibvs_youla.analysis.suites import GansTask
+
+    task = _must_build_or_raise(
+        GansTask,
+        name="fuzz",
+        test="general motion",
+        rotation_deg=rotation_deg,
+        retreat_m=retreat_m,
+        lateral_m=lateral_m,
+    )
+    if task is not None:
+        assert type(task.rotation_deg) is float and all(type(v) is float for v in task.lateral_m)
+        assert np.all(np.isfinite(task.T_C_target_C_start))

@@ -173,7 +173,7 @@ class OuterLoopDesign:
         def err(x: float) -> float:
             return a * math.exp(-x) - b * math.exp(-ratio * x) - thr
 
-        x_hi = math.log(a / thr)  # a e^-x = thr there, so |e| < thr
+        x_hi = math.log(a / thr) + 1e-3  # a e^-x < thr there, so |e| < thr (by 1e-3 thr: no round-off tie)
         return brentq(err, 0.0, x_hi, xtol=1e-12 * x_hi, rtol=4 * _EPS) / slow
 
     def filter_tf(self) -> ct.TransferFunction:

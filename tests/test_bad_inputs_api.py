@@ -30,6 +30,7 @@ from ibvs_youla.estimation.monocular_pose import estimate_camera_pose, estimate_
 from ibvs_youla.estimation.stereo_pose import estimate_pose, rigid_transform_from_points
 from ibvs_youla.exceptions import DegenerateMarkersError, InvalidArrayError, InvalidParameterError
 from ibvs_youla.model.camera import PinholeCamera, StereoCamera, default_camera
+from ibvs_youla.simulation.inner_loop import inner_step_response
 from ibvs_youla.viz.playback import playback_frames
 
 P = InvalidParameterError
@@ -450,6 +451,38 @@ ANALYSIS = [
     case(lambda: classify(None), P, "result", "classify-none"),
     case(lambda: playback_frames(np.arange(3.0), speed="1"), P, "speed", "playback-speed-str"),
     case(lambda: playback_frames(np.arange(3.0), speed=1e-300), P, "speed", "playback-too-many-frames"),
+    case(lambda: generate_cases("free-planar", 10**13, 0), P, "n", "cases-too-many-for-memory"),
+    case(
+        lambda: inner_step_response(_arm(), np.zeros(6), np.full(6, 0.1), 1e12),
+        P,
+        "duration",
+        "inner-step-huge",
+    ),
+    case(
+        lambda: inner_step_response(_arm(), np.zeros(6), np.full(6, 0.1), 1e-4),
+        P,
+        "duration",
+        "inner-step-short",
+    ),
+    case(
+        lambda: inner_step_response(_arm(), np.zeros(6), np.full(6, 0.1), dt="1e-3"),
+        P,
+        "dt",
+        "inner-step-dt-str",
+    ),
+    case(
+        lambda: iy.simulate(
+            suites.task("gans-rz-180").scenario(),
+            controllers.make("mpc-ibvs", horizon=10**6),
+            plant="free-camera",
+            camera=suites.suite_camera(),
+            settings=suites.suite_settings(),
+            duration=1.0,
+        ),
+        P,
+        "horizon",
+        "mpc-horizon-too-large-for-memory",
+    ),
 ]
 
 

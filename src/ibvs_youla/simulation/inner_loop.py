@@ -17,7 +17,9 @@ from typing import Any
 
 import numpy as np
 
+from .._memory import fits_in_memory
 from .._validation import as_array, positive
+from ..exceptions import InvalidParameterError
 from ..model.arm import Arm
 from .actuation import InnerLoopActuator
 from .plant import ArmPlant
@@ -62,6 +64,11 @@ def inner_step_response(
     actuator = InnerLoopActuator(model, tau_in, dt)
     plant = ArmPlant(arm, q_encoder=q0)
     n = round(duration / dt)
+    if n < 1:
+        raise InvalidParameterError("duration", duration, f"at least one sample, dt = {dt:g} s")
+    fits_in_memory(
+        8.0 * (n + 1) * (1 + 2 * arm.nq), "duration", duration, "a shorter duration or a larger dt"
+    )
     t = np.arange(n + 1) * dt
     q = np.empty((n + 1, arm.nq))
     tau = np.empty((n + 1, arm.nq))

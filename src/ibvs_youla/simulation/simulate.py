@@ -161,10 +161,13 @@ def simulate(
         ``metadata["spec"]`` holds the full run specification.
 
     Raises:
-        InvalidParameterError: unknown controller or plant, non-positive duration, a
-            scenario, settings, arm, camera or beliefs of the wrong type, a free-camera
-            scenario on an arm plant, or a controller that cannot use the task (e.g. the
-            paper's controller with a monocular camera).
+        InvalidParameterError: unknown controller or plant, ``adaptive`` or ``progress`` not
+            True or False, a duration that is not a real number > 0, is shorter than one tick
+            or whose recording would not fit in memory (refused before allocating; the
+            message gives the size and what reduces it), a scenario, settings, arm, camera or
+            beliefs of the wrong type, a joint rate below 1/tau_in on an arm plant, a
+            free-camera scenario on an arm plant, or a controller that cannot use the task
+            (e.g. the paper's controller with a monocular camera).
         IncompatibleCommandError: the controller's command cannot drive the plant.
         JointLimitError: the scenario's configurations are outside the arm's limits.
         SimulationDivergedError: a state left its bounds; ``error.partial`` holds the

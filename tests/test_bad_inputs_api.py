@@ -95,6 +95,7 @@ SIMULATE = [
     case(_sim(duration=1e-4), P, "duration", "duration-below-one-tick"),
     case(_sim(duration=6e-4), P, "duration", "duration-shorter-than-one-joint-step"),
     case(_sim(duration=1e12), P, "duration", "duration-too-large-for-memory"),
+    case(_sim(duration=1e308), P, "duration", "duration-ticks-overflow-a-float"),
     case(
         lambda: iy.simulate(SC, duration=3e7, settings=iy.SimulationSettings(record_every=2)),
         P,
@@ -463,6 +464,12 @@ ANALYSIS = [
         P,
         "duration",
         "inner-step-short",
+    ),
+    case(
+        lambda: inner_step_response(_arm(), np.zeros(6), np.full(6, 0.1), 1e308),
+        P,
+        "duration",
+        "inner-step-inf",
     ),
     case(
         lambda: inner_step_response(_arm(), np.zeros(6), np.full(6, 0.1), dt="1e-3"),

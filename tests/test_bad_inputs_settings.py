@@ -156,6 +156,7 @@ DESIGNS = [
     ),
     case(lambda: FeedforwardDesign().sampled_step_demand(1.0, horizon=1e12), P, "horizon", "ff-horizon-huge"),
     case(lambda: FeedforwardDesign().sampled_step_demand(1.0, horizon="1"), P, "horizon", "ff-horizon-str"),
+    case(lambda: FeedforwardDesign().sampled_step_demand(1.0, horizon=1e308), P, "horizon", "ff-horizon-inf"),
     case(lambda: FeedforwardDesign().sampled_tracking(n_joints=True), P, "n_joints", "ff-n_joints-bool"),
     case(lambda: SingularValuePolicy(kind="pinv"), P, "kind", "sv-kind-unknown"),
     case(lambda: SingularValuePolicy(kind=None), P, "kind", "sv-kind-none"),

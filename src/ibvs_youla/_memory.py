@@ -37,14 +37,15 @@ def fits_in_memory(n_bytes: float, name: str, value: Any, remedy: str) -> None:
     Raises:
         InvalidParameterError: naming ``name``, the estimated size, the memory available and the remedy.
     """
-    if n_bytes <= _SMALL_BYTES:  # no need to ask the system
+    if n_bytes <= _SMALL_BYTES:  # no need to ask the system (False for NaN)
         return
     available = available_memory()
-    if n_bytes > available:
+    if not n_bytes <= available:  # NaN or inf (an overflowed estimate) is refused too
+        need = f"about {size_text(n_bytes)}" if math.isfinite(n_bytes) else "more than any memory"
         raise InvalidParameterError(
             name,
             value,
-            f"a value whose arrays fit in memory: this one needs about {size_text(n_bytes)}, "
+            f"a value whose arrays fit in memory: this one needs {need}, "
             f"{size_text(available)} are available; use {remedy}",
         )
 
@@ -66,6 +67,8 @@ def available_memory() -> float:
 
 def size_text(n_bytes: float) -> str:
     """A size in bytes for a message: ``"7.11 PB"``, ``"512 MB"``."""
+    if not math.isfinite(n_bytes):
+        return "an unbounded size"
     for unit, size in (("EB", 2**60), ("PB", 2**50), ("TB", 2**40), ("GB", 2**30), ("MB", 2**20)):
         if n_bytes >= size:
             x = n_bytes / size

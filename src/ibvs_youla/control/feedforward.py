@@ -191,10 +191,10 @@ class FeedforwardDesign:
         dt = float(sys.dt)
         if horizon is None:
             horizon = 20.0 * self.tau_in + 200.0 * dt
-        horizon_s = positive(horizon, "horizon", unit="s")
-        n = math.ceil(horizon_s / dt) + 1
+        samples = positive(horizon, "horizon", unit="s") / dt + 1.0  # a float: inf for 1e308 s
         # python-control's step response holds the time, the state (9) and the outputs (2)
-        fits_in_memory(8.0 * 12.0 * n, "horizon", horizon, "a shorter horizon or a larger dt")
+        fits_in_memory(8.0 * 12.0 * samples, "horizon", horizon, "a shorter horizon or a larger dt")
+        n = math.ceil(samples)
         y = ct.step_response(sys, np.arange(n) * dt).outputs[:, 0, :]
         peak_speed = float(np.max(np.abs(y[1])))
         overshoot = max(float(np.max(y[0])) - 1.0, 0.0)

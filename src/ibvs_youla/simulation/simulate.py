@@ -195,8 +195,8 @@ def simulate(
     else:
         arm = Arm.irb4600() if arm is None else arm
         world = _arm_world(scenario, plant, arm, settings)
-    n_ticks = round(duration / world.dt)
-    if n_ticks < 1 or duration < world.dt * (1.0 - 1e-9):  # no silent zero-step (or rounded-up) run
+    ticks = duration / world.dt  # a float: 1e308 s is inf ticks, refused below before any rounding
+    if ticks < 1.0 - 1e-9:  # no silent zero-step (or rounded-up) run
         raise InvalidParameterError(
             "duration",
             duration,
@@ -256,14 +256,16 @@ def simulate(
             f"names other than the plant's and the commands' "
             f"({', '.join((*world.plant.signal_names, *command_signals))})",
         )
-    n_rows, n_frames = n_ticks // record_every + 2, n_ticks // world.ticks_per_frame + 1
+    n_rows, n_frames = ticks / record_every + 2, ticks / world.ticks_per_frame + 1  # floats until checked
     fits_in_memory(
         ResultRecorder.estimate_bytes(n_rows, n_frames, task.feature_target.size, sensor.n_points, shapes),
         "duration",
         duration,
         f"a shorter duration or a larger settings.record_every (now {record_every}: {n_rows:.3g} samples "
-        f"of {n_ticks:.3g} ticks are kept, and all {n_frames:.3g} camera frames)",
+        f"of {ticks:.3g} ticks are kept, and all {n_frames:.3g} camera frames)",
     )
+    n_ticks = round(ticks)
+    n_rows = n_ticks // record_every + 2
     metadata = _metadata(scenario, ctrl, plant, world, camera, settings, beliefs, n_ticks)
     recorder = ResultRecorder(
         task.feature_target,

@@ -21,6 +21,7 @@ caller stores.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 from typing import Any
 
@@ -158,7 +159,7 @@ def _real_or_none(value: Any) -> float | None:
     """
     if type(value) is float:  # the common case, first
         return value
-    if (isinstance(value, _REAL) and not isinstance(value, bool)) or (
+    if (isinstance(value, (*_REAL, numbers.Real)) and not isinstance(value, (bool, np.bool_))) or (
         isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf"
     ):
         try:
@@ -180,7 +181,8 @@ def real(
 ) -> float:
     """Return ``value`` as a float after checking it is a finite real number within the bounds.
 
-    A real number is an ``int``, a ``float`` or a numpy real scalar (or 0-d array); bool, str,
+    A real number is an ``int``, a ``float``, a numpy real scalar (or 0-d array) or any
+    ``numbers.Real`` (a ``Fraction``); bool, str,
     complex and None are not, whatever ``float()`` would make of them.
 
     Args:

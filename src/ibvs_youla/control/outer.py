@@ -42,7 +42,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from .._validation import as_array, frequencies, instance, integer, positive, real
-from ..exceptions import InvalidParameterError
+from ..exceptions import InvalidArrayError, InvalidParameterError
 from .discrete import DiscreteFilter
 from .inner import InnerLoopDesign
 from .singular_values import SingularValuePolicy, SvdGains
@@ -293,6 +293,10 @@ class OuterLoopController:
         """
         if J is not None:
             J = as_array(J, "J", (None, self._n))
+            if J.shape[0] == 0:
+                raise InvalidArrayError(
+                    "J", f"an array of shape {J.shape}", f"shape (m, {self._n}) with m >= 1"
+                )
             return self.advance(as_array(e_image, "e_image", (J.shape[0],)), J).copy()
         if self._fixed is None:
             raise InvalidParameterError("J", None, "an (m, n) Jacobian: no fixed Jacobian was set")

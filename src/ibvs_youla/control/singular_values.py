@@ -15,7 +15,7 @@ import numpy as np
 
 from .._linalg import svd
 from .._validation import as_array, integer, one_of, real
-from ..exceptions import SingularConfigurationError
+from ..exceptions import InvalidArrayError, SingularConfigurationError
 
 __all__ = ["SingularValuePolicy", "SvdGains"]
 
@@ -108,7 +108,10 @@ class SingularValuePolicy:
 
     def decompose(self, J: Any) -> SvdGains:
         """Economy SVD of J (m, n), the gains and the regularized pseudo-inverse V diag(g) U^T."""
-        return SvdGains.from_svd(*self.svd_gains(as_array(J, "J", (None, None))))
+        J = as_array(J, "J", (None, None))
+        if J.size == 0:
+            raise InvalidArrayError("J", f"an array of shape {J.shape}", "a Jacobian with rows and columns")
+        return SvdGains.from_svd(*self.svd_gains(J))
 
     def svd_gains(self, J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(U, sigma, gains, Vt) of J (m, n): `decompose` without the pseudo-inverse.

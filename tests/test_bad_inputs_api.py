@@ -18,7 +18,7 @@ from ibvs_youla import controllers, scenarios
 from ibvs_youla.analysis import suites
 from ibvs_youla.analysis.compare import compare
 from ibvs_youla.analysis.convergence import classify
-from ibvs_youla.analysis.metrics import settling_time
+from ibvs_youla.analysis.metrics import final_error, settling_time
 from ibvs_youla.analysis.reproduce import reproduce
 from ibvs_youla.campaign.cases import generate_cases
 from ibvs_youla.campaign.runner import CampaignDefinition
@@ -450,6 +450,8 @@ ANALYSIS = [
     case(lambda: settling_time(np.arange(3.0), np.zeros(3), band="0.02"), P, "band", "metrics-band-str"),
     case(lambda: settling_time(np.arange(3.0), np.zeros(3), atol=True), P, "atol", "metrics-atol-bool"),
     case(lambda: classify(None), P, "result", "classify-none"),
+    case(lambda: final_error(np.zeros((3, 2)), 1j), A, "y_final", "metrics-final-complex"),
+    case(lambda: final_error(np.zeros((3, 2)), np.zeros(3)), A, "y_final", "metrics-final-shape"),
     case(lambda: playback_frames(np.arange(3.0), speed="1"), P, "speed", "playback-speed-str"),
     case(lambda: playback_frames(np.arange(3.0), speed=1e-300), P, "speed", "playback-too-many-frames"),
     case(lambda: generate_cases("free-planar", 10**13, 0), P, "n", "cases-too-many-for-memory"),

@@ -165,6 +165,13 @@ DESIGNS = [
     case(lambda: SingularValuePolicy(threshold="0.1"), P, "threshold", "sv-threshold-str"),
     case(lambda: SingularValuePolicy(threshold=True), P, "threshold", "sv-threshold-bool"),
     case(lambda: SingularValuePolicy().gains([1.0, 0.5], size="2"), P, "size", "sv-size-str"),
+    case(lambda: SingularValuePolicy().decompose(np.zeros((0, 6))), A, "J", "sv-decompose-empty"),
+    case(
+        lambda: OuterLoopDesign().runtime(0.01).update(np.zeros(0), np.zeros((0, 6))),
+        A,
+        "J",
+        "outer-update-empty-J",
+    ),
     case(lambda: MinimumJerkTrajectory(np.zeros(6), np.ones(6), "1"), P, "duration", "mj-duration-str"),
     case(lambda: MinimumJerkTrajectory(np.zeros(6), np.ones(6), True), P, "duration", "mj-duration-bool"),
     case(lambda: MinimumJerkTrajectory(np.zeros(6), np.ones(5), 1.0), A, "q_des", "mj-q_des-shape"),
@@ -204,6 +211,10 @@ def test_validated_values_are_stored_as_their_types():
     assert (o.omega_n, o.zeta) == (4.0, 2.0)
     ff = FeedforwardDesign(tau_in=np.float64(0.01), tau_forward=np.int8(1))
     assert (type(ff.tau_in), type(ff.tau_forward)) == (float, float)
+    from fractions import Fraction
+
+    assert InnerLoopDesign(Fraction(1, 50)).tau_in == 0.02  # a Fraction is a real number
+    assert type(InnerLoopDesign(np.array(0.02)).tau_in) is float  # so is a 0-d array
     gains = AdaptiveGain(np.int64(4), 1, 30)
     assert all(type(v) is float for v in (gains.lambda_0, gains.lambda_inf, gains.lambda_dot_0))
 

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import argparse
 import datetime
 import json
+import math
 import os
 import platform
 import time
@@ -14,6 +16,28 @@ from typing import Any
 import numpy as np
 
 perf_counter = time.perf_counter
+
+
+def count(text: str) -> int:
+    """An argparse type for counts (repeats, configurations, cases): an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"received {text!r}; valid values are integers >= 1")
+    return value
+
+
+def seconds(text: str) -> float:
+    """An argparse type for a simulated duration: a finite number > 0 [s]."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value < math.inf:
+        raise argparse.ArgumentTypeError(f"received {text!r}; valid values are finite numbers > 0 [s]")
+    return value
 
 
 def timed(fn: Callable[..., Any], *args: Any) -> tuple[float, Any]:

@@ -41,9 +41,9 @@ from typing import Any
 import numpy as np
 
 try:  # imported as benchmarks.bench_campaign
-    from ._timing import machine, perf_counter, write_json
+    from ._timing import count, machine, perf_counter, seconds, write_json
 except ImportError:  # run as a script
-    from _timing import machine, perf_counter, write_json
+    from _timing import count, machine, perf_counter, seconds, write_json
 
 from ibvs_youla.campaign.cases import generate_cases
 from ibvs_youla.campaign.run import run_spec
@@ -255,12 +255,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     """Run the benchmark, print a summary, write JSON if asked; return the report."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--json", metavar="FILE", help="write the report here")
-    ap.add_argument("--cases", type=int, default=30, help="free-camera cases (default 30, x 7 methods)")
-    ap.add_argument("--arm-cases", type=int, default=3, help="arm cases (default 3, x 9 methods)")
-    ap.add_argument("--duration", type=float, default=20.0, help="simulated s per free-camera run (20)")
-    ap.add_argument("--arm-duration", type=float, default=10.0, help="simulated s per arm run (10)")
-    ap.add_argument("--repeats", type=int, default=1, help="timed repeats of every configuration (1)")
-    ap.add_argument("--batch", type=int, default=50, help="rows per Parquet file written (50)")
+    ap.add_argument("--cases", type=count, default=30, help="free-camera cases (default 30, x 7 methods)")
+    ap.add_argument("--arm-cases", type=count, default=3, help="arm cases (default 3, x 9 methods)")
+    ap.add_argument("--duration", type=seconds, default=20.0, help="simulated s per free-camera run (20)")
+    ap.add_argument("--arm-duration", type=seconds, default=10.0, help="simulated s per arm run (10)")
+    ap.add_argument("--repeats", type=count, default=1, help="timed repeats of every configuration (1)")
+    ap.add_argument("--batch", type=count, default=50, help="rows per Parquet file written (50)")
     args = ap.parse_args(argv)
 
     load_before = os.getloadavg()[0] if hasattr(os, "getloadavg") else None

@@ -40,9 +40,9 @@ import pinocchio as pin
 from scipy.linalg import lapack
 
 try:  # imported as benchmarks.bench_outer_loop
-    from ._timing import machine, perf_counter, summary_us, write_json
+    from ._timing import count, machine, perf_counter, summary_us, write_json
 except ImportError:  # run as a script
-    from _timing import machine, perf_counter, summary_us, write_json
+    from _timing import count, machine, perf_counter, summary_us, write_json
 
 from ibvs_youla import scenarios
 from ibvs_youla.control.discrete import DiscreteFilter
@@ -105,9 +105,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     """Run the benchmark, print a summary, write JSON if asked; return the report."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--json", metavar="FILE", help="write the report here")
-    ap.add_argument("--configs", type=int, default=200, help="seeded configurations (default 200)")
-    ap.add_argument("--repeats", type=int, default=15, help="timed passes over them (default 15)")
-    ap.add_argument("--rebuilds", type=int, default=15, help="timed literal rebuilds (default 15)")
+    ap.add_argument("--configs", type=count, default=200, help="seeded configurations (default 200)")
+    ap.add_argument("--repeats", type=count, default=15, help="timed passes over them (default 15)")
+    ap.add_argument("--rebuilds", type=count, default=15, help="timed literal rebuilds (default 15)")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
 

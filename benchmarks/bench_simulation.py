@@ -26,9 +26,9 @@ from typing import Any
 import numpy as np
 
 try:  # imported as benchmarks.bench_simulation
-    from ._timing import machine, perf_counter, write_json
+    from ._timing import count, machine, perf_counter, seconds, write_json
 except ImportError:  # run as a script
-    from _timing import machine, perf_counter, write_json
+    from _timing import count, machine, perf_counter, seconds, write_json
 
 import ibvs_youla
 from ibvs_youla import scenarios
@@ -65,8 +65,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     """Run the benchmark, print a summary, write JSON if asked; return the report."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--json", metavar="FILE", help="write the report here")
-    ap.add_argument("--duration", type=float, default=5.0, help="simulated seconds per run (default 5)")
-    ap.add_argument("--repeats", type=int, default=3, help="timed runs per case (default 3)")
+    ap.add_argument("--duration", type=seconds, default=5.0, help="simulated seconds per run (default 5)")
+    ap.add_argument("--repeats", type=count, default=3, help="timed runs per case (default 3)")
     args = ap.parse_args(argv)
 
     arm, camera = Arm.irb4600(), StereoCamera.zed2()

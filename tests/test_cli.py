@@ -93,10 +93,10 @@ def test_library_errors_exit_1_with_one_line(capsys, tmp_path):
     line = one_error_line(err)
     assert code == 1
     assert "settings.zetta: received 2.0" in line and "zeta" in line and "omega_n" in line
-    # a design the library rejects (Section 6.3: 1/omega_n > tau_in)
+    # a design the library rejects (Section 6.3: 1/omega_n > tau_in) from a flag: an argument error
     code, _, err = run(capsys, "design", "outer", "--omega-n", "200")
-    assert code == 1
-    assert "omega_n: received 200.0" in one_error_line(err)
+    assert code == 2
+    assert "argument --omega-n: received 200.0" in one_error_line(err)
 
 
 def test_scenario_outside_the_joint_limits_is_one_line(capsys, tmp_path):

@@ -90,7 +90,7 @@ def test_settings_keys_cover_every_simulation_setting():
     [
         ({"setings": {}}, "setings", "[settings]"),
         ({"settings": {"zetta": 1.0}}, "settings.zetta", "zeta"),
-        ({"settings": {"zeta": -1.0}}, "settings.zeta", "> 0"),
+        ({"settings": {"zeta": -1.0}}, "settings.zeta", "[1e-06, 1e+12]"),  # ZETA_RANGE
         ({"settings": {"zeta": "ten"}}, "settings.zeta", "a finite number"),
         ({"settings": {"feedforward": "fast"}}, "settings.feedforward", "'paper' or 'smooth'"),
         ({"settings": {"saturate": "yes"}}, "settings.saturate", "true or false"),

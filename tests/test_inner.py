@@ -111,7 +111,7 @@ def test_bad_tau(bad):
     with pytest.raises(InvalidParameterError, match="tau") as info:
         InnerLoopDesign(bad)
     assert info.value.name == "tau_in"
-    assert "> 0" in info.value.valid
+    assert "[1e-06, 1000] s" in info.value.valid  # TAU_IN_RANGE_S
     assert info.value.value is bad
 
 

@@ -1,4 +1,4 @@
-"""Input checks shared by every module: shapes, finiteness, scalar ranges.
+"""Input checks shared by every module: types, shapes, finiteness, ranges, sizes.
 
 Internal: public functions call these at their boundary so that bad input raises
 an :class:`~ibvs_youla.exceptions.IbvsYoulaError` subclass with a message that
@@ -9,11 +9,19 @@ shape costs a type, shape and one dot-product test (``x . x`` is finite exactly 
 every entry is, unless it overflows, |x| > 1e154, and then the full test decides),
 about 0.5 us; :func:`as_pose` checks rigidity in scalar arithmetic, about 2 us.
 Anything else takes the full path, which converts and names what is wrong.
+
+Scalars: a real number (:func:`real`, :func:`positive`, :func:`non_negative`) is an ``int``,
+a ``float`` or a numpy real scalar, never a bool, a string or a complex number, whatever
+``float()`` would make of them; an integer (:func:`integer`) is not a bool and not ``2.0``; a
+flag (:func:`flag`) is ``True`` or ``False``, not ``"false"``; a choice (:func:`one_of`) is a
+string. Each returns the validated value in its own type (``float(x)``, ``int(n)``), which the
+caller stores.
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 from typing import Any
 
@@ -140,29 +148,157 @@ def frequencies(value: Any, name: str, why: str = "") -> np.ndarray:
     return w
 
 
-def _bounded_below(value: Any, name: str, unit: str, strict: bool) -> float:
-    valid = f"a finite number {'>' if strict else '>='} 0{(' ' + unit) if unit else ''}"
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise InvalidParameterError(name, value, valid) from None
-    if not np.isfinite(x) or x < 0.0 or (strict and x == 0.0):
-        raise InvalidParameterError(name, value, valid)
-    return x
+_REAL = (int, float, np.integer, np.floating)
+
+
+def _real_or_none(value: Any) -> float | None:
+    """``value`` as a float if it is a real number (numpy real scalars and 0-d arrays too), else None.
+
+    bool, str, bytes, complex, None and sequences are not real numbers (``float()`` would accept
+    ``True`` and ``"0.01"``, which is how a typo becomes a silent value).
+    """
+    if type(value) is float:  # the common case, first
+        return value
+    if (isinstance(value, (*_REAL, numbers.Real)) and not isinstance(value, (bool, np.bool_))) or (
+        isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf"
+    ):
+        try:
+            return float(value)
+        except OverflowError:  # an int beyond the float range
+            return math.inf
+    return None
+
+
+def real(
+    value: Any,
+    name: str,
+    *,
+    unit: str = "",
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    high_open: bool = False,
+) -> float:
+    """Return ``value`` as a float after checking it is a finite real number within the bounds.
+
+    A real number is an ``int``, a ``float``, a numpy real scalar (or 0-d array) or any
+    ``numbers.Real`` (a ``Fraction``); bool, str,
+    complex and None are not, whatever ``float()`` would make of them.
+
+    Args:
+        value: The value received.
+        name: Argument name used in the error message, as the user wrote it.
+        unit: Unit appended to the bounds in the message, e.g. ``"s"``.
+        low: Lower bound (``None``: unbounded below).
+        high: Upper bound (``None``: unbounded above).
+        low_open: Exclude ``low`` itself.
+        high_open: Exclude ``high`` itself.
+
+    Raises:
+        InvalidParameterError: not a real number, not finite, or out of the bounds.
+    """
+    x = _real_or_none(value)
+    if (
+        x is not None
+        and math.isfinite(x)
+        and (low is None or x > low or (x == low and not low_open))
+        and (high is None or x < high or (x == high and not high_open))
+    ):
+        return x
+    raise InvalidParameterError(name, value, _range_text(unit, low, high, low_open, high_open))
+
+
+def _range_text(unit: str, low: float | None, high: float | None, low_open: bool, high_open: bool) -> str:
+    u = f" {unit}" if unit else ""
+    if low is not None and high is not None:
+        return f"a number in {'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}{u}"
+    if low is not None:
+        return f"a finite number {'>' if low_open else '>='} {low:g}{u}"
+    if high is not None:
+        return f"a finite number {'<' if high_open else '<='} {high:g}{u}"
+    return f"a finite number [{unit}]" if unit else "a finite number"
 
 
 def positive(value: Any, name: str, *, unit: str = "") -> float:
-    """Return ``value`` as a float after checking it is finite and > 0."""
-    return _bounded_below(value, name, unit, strict=True)
+    """Return ``value`` as a float after checking it is a finite real number > 0 (see :func:`real`)."""
+    if type(value) is float and 0.0 < value < math.inf:  # fast path
+        return value
+    return real(value, name, unit=unit, low=0.0, low_open=True)
 
 
 def non_negative(value: Any, name: str, *, unit: str = "") -> float:
-    """Return ``value`` as a float after checking it is finite and >= 0."""
-    return _bounded_below(value, name, unit, strict=False)
+    """Return ``value`` as a float after checking it is a finite real number >= 0 (see :func:`real`)."""
+    if type(value) is float and 0.0 <= value < math.inf:  # fast path
+        return value
+    return real(value, name, unit=unit, low=0.0)
+
+
+def integer(value: Any, name: str, *, low: int | None = None, high: int | None = None, unit: str = "") -> int:
+    """Return ``value`` as an int after checking it is an integer (not a bool, not 2.0) within the bounds.
+
+    Raises:
+        InvalidParameterError: not an ``int`` or numpy integer, or out of ``[low, high]``.
+    """
+    if (
+        isinstance(value, (int, np.integer))
+        and not isinstance(value, bool)
+        and (low is None or value >= low)
+        and (high is None or value <= high)
+    ):
+        return int(value)
+    u = f" {unit}" if unit else ""
+    if low is not None and high is not None:
+        valid = f"an integer in [{low}, {high}]{u}"
+    elif low is not None:
+        valid = f"an integer >= {low}{u}"
+    else:
+        valid = f"an integer{u}" if high is None else f"an integer <= {high}{u}"
+    raise InvalidParameterError(name, value, valid)
+
+
+def flag(value: Any, name: str) -> bool:
+    """Return ``value`` as a bool after checking it is one (``True``, ``False`` or a numpy bool).
+
+    ``"false"``, 0 and 1 are not flags: ``bool("false")`` is True.
+
+    Raises:
+        InvalidParameterError: anything else.
+    """
+    if value is True or value is False:
+        return value
+    if isinstance(value, np.bool_):
+        return bool(value)
+    raise InvalidParameterError(name, value, "True or False")
+
+
+def instance(value: Any, name: str, kind: type | tuple[type, ...], valid: str) -> Any:
+    """Return ``value`` after checking ``isinstance(value, kind)``.
+
+    Raises:
+        InvalidParameterError: naming the type received and ``valid`` (e.g. ``"a StereoCamera"``).
+    """
+    if isinstance(value, kind):
+        return value
+    raise InvalidParameterError(name, type(value).__name__ if value is not None else None, valid)
+
+
+def text(value: Any, name: str, *, empty: bool = True) -> str:
+    """Return ``value`` after checking it is a string (non-empty unless ``empty``).
+
+    Raises:
+        InvalidParameterError: not a string, or empty when ``empty`` is False.
+    """
+    if isinstance(value, str) and (empty or value):
+        return str(value)
+    raise InvalidParameterError(name, value, "a string" if empty else "a non-empty string")
 
 
 def one_of(value: Any, name: str, choices: Sequence[str]) -> str:
-    """Check that ``value`` is one of ``choices`` (strings)."""
-    if value not in choices:
+    """Return ``value`` after checking it is a string among ``choices``.
+
+    Raises:
+        InvalidParameterError: not a string (a list or an array is never compared), or not a choice.
+    """
+    if not isinstance(value, str) or value not in choices:
         raise InvalidParameterError(name, value, " or ".join(repr(c) for c in choices))
-    return value
+    return str(value)

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -370,14 +371,20 @@ def load_config(path: str | Path, *, settings_preset: str = "default") -> RunCon
     (see :func:`parse_config`).
 
     Raises:
-        ConfigError: the file is missing or is not valid TOML (``err.name == "config"``),
+        ConfigError: the file is missing, unreadable, not UTF-8 or not valid TOML (``err.name == "config"``),
             or a key is unknown or has an invalid value (``err.name`` is the dotted key).
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise ConfigError("config", path, "a TOML file path (str or pathlib.Path)")
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise ConfigError("config", str(path), f"a readable TOML file ({exc.strerror})") from None
+    except UnicodeDecodeError as exc:  # TOML is UTF-8 (TOML 1.0, "Spec")
+        raise ConfigError(
+            "config", str(path), f"a UTF-8 text file (TOML); byte {exc.start} is {exc.object[exc.start]:#04x}"
+        ) from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validation import as_array, as_pose
+from ._validation import as_array, as_pose, one_of
 from .estimation.stereo_pose import check_marker_geometry
 from .exceptions import InvalidParameterError, JointLimitError
 
@@ -283,9 +283,9 @@ def place_markers(T_O_C: Any, rays_xy: Any = MARKER_RAYS_XY, depths: Any = (2.0,
 
 
 def _check_index(index: Any) -> int:
-    if index not in (1, 2) or isinstance(index, bool):
-        raise InvalidParameterError("index", index, "1 or 2 (the paper's scenarios, Table 1)")
-    return int(index)
+    if isinstance(index, (int, np.integer)) and not isinstance(index, bool) and index in (1, 2):
+        return int(index)
+    raise InvalidParameterError("index", index, "1 or 2 (the paper's scenarios, Table 1)")
 
 
 def paper(index: int) -> Scenario:
@@ -349,6 +349,4 @@ def get(name: str) -> Scenario:
     Raises:
         InvalidParameterError: unknown name (the message lists the valid ones).
     """
-    if name not in _REGISTRY:
-        raise InvalidParameterError("scenario", name, " or ".join(repr(n) for n in NAMES))
-    return _REGISTRY[name]()
+    return _REGISTRY[one_of(name, "scenario", NAMES)]()

@@ -347,12 +347,21 @@ def compare(
             a bad plant or duration, or a free-camera scenario on an arm plant.
     """
     from .. import controllers as registry
-    from .._validation import one_of, positive
+    from .._validation import instance, one_of, positive
+    from ..controllers import Controller
     from ..model.arm import Arm
     from ..model.camera import PinholeCamera, StereoCamera, default_camera
+    from ..scenarios import Scenario
     from ..simulation.settings import SimulationSettings
     from ..simulation.simulate import PLANTS, simulate
 
+    instance(scenario, "scenario", Scenario, "a Scenario (e.g. iy.scenarios.get('paper-1'))")
+    if isinstance(controllers, (str, Controller)) or not isinstance(controllers, Sequence):
+        raise InvalidParameterError(
+            "controllers", controllers, "a list of registered names or controller objects: ['fb', 'ff+fb']"
+        )
+    if arm is not None:
+        instance(arm, "arm", Arm, "an Arm or None")
     duration = positive(duration, "duration", unit="s")
     if camera is not None and not isinstance(camera, (StereoCamera, PinholeCamera)):
         raise InvalidParameterError(

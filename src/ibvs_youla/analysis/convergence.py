@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._geometry import pose_error_series_mm_deg
-from .._validation import positive
+from .._validation import instance, positive, real
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..simulation.results import SimulationResult
@@ -53,12 +53,9 @@ class Tolerances:
 
     def __post_init__(self) -> None:
         for name in ("image_m", "position_mm", "rotation_deg", "stall_rtol"):
-            positive(getattr(self, name), name)
-        w = positive(self.window, "window")
-        if w >= 1.0:
-            from ..exceptions import InvalidParameterError
-
-            raise InvalidParameterError("window", w, "a fraction in (0, 1)")
+            object.__setattr__(self, name, positive(getattr(self, name), name))
+        window = real(self.window, "window", low=0.0, high=1.0, low_open=True, high_open=True)
+        object.__setattr__(self, "window", window)
 
 
 @dataclass(frozen=True)
@@ -110,7 +107,10 @@ class Outcome:
 
 def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> Outcome:
     """Classify a run as reached / stalled / converging (see the module docstring)."""
-    tol = Tolerances() if tolerances is None else tolerances
+    from ..simulation.results import SimulationResult
+
+    instance(result, "result", SimulationResult, "a SimulationResult")
+    tol = Tolerances() if tolerances is None else instance(tolerances, "tolerances", Tolerances, "Tolerances")
     e = result.feature_error
     n_points = result.n_points
     status = result.metadata.get("status", "complete")

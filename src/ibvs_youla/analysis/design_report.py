@@ -67,7 +67,19 @@ def format_roots(values: Any) -> str:
 
 
 def step_summary(sys: ct.TransferFunction, horizon: float) -> str:
-    """Overshoot [%] and 2 % settling time [s] of a unit step, on 20001 samples over ``horizon``."""
+    """Overshoot [%] and 2 % settling time [s] of a unit step, on 20001 samples over ``horizon``.
+
+    Not measured (and said so) when that grid cannot resolve the response: an oscillation of
+    more than 0.1 rad per sample, or poles more than 1e12 apart, where the matrix exponential
+    of one sample loses the slow mode to round-off (m_T with zeta > 5e5).
+    """
+    dt = horizon / 20000
+    poles = np.atleast_1d(ct.poles(sys))
+    if np.any(np.abs(poles.imag) * dt > 0.1):
+        return f"not measured (oscillation of {np.abs(poles.imag).max():.4g} rad/s over {horizon:.4g} s)"
+    size = np.abs(poles[poles != 0])
+    if size.size and (size.max() > 1e12 * size.min() or size.max() * dt > 1e15):
+        return f"not measured (poles {size.min():.3g} to {size.max():.3g} rad/s: too stiff for one grid)"
     r = ct.step_response(sys, T=np.linspace(0.0, horizon, 20001))
     y = np.ravel(r.outputs)
     ts = settling_time(r.time, y, y_final=1.0, y_initial=0.0)

@@ -139,7 +139,12 @@ def final_error(y: Any, y_final: Any) -> np.ndarray:
     y = as_array(y, "y", finite=False)
     if y.ndim == 0 or y.shape[0] == 0:
         raise InvalidArrayError("y", f"an array of shape {y.shape}", "at least one sample")
-    return np.asarray(y_final, dtype=float) - y[-1]
+    target = as_array(y_final, "y_final", finite=False)
+    if target.shape not in ((), y[-1].shape):
+        raise InvalidArrayError(
+            "y_final", f"an array of shape {target.shape}", f"a scalar or shape {y[-1].shape}"
+        )
+    return target - y[-1]
 
 
 def peak_with_ratio(x: Any, limit: Any = None) -> tuple[np.ndarray, np.ndarray | None]:

@@ -28,15 +28,17 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from .._validation import non_negative, positive
+from .._validation import flag, instance, non_negative, one_of, positive
 from ..controllers.youla import VARIANTS
 from ..exceptions import DamagedFileError, InvalidParameterError, SimulationDivergedError
 from ..files import folder_lock, remove_temporaries, save_figure, write_text
 from ..model.arm import Arm
+from ..scenarios import NAMES
 from ..scenarios import get as get_scenario
 from ..simulation.results import SimulationResult
 from ..simulation.settings import SimulationSettings
@@ -206,8 +208,14 @@ def reproduce(
     """
     duration = positive(duration, "duration", unit="s")
     diagnosis_duration = non_negative(diagnosis_duration, "diagnosis_duration", unit="s")
-    if not scenario_names:
-        raise InvalidParameterError("scenario_names", scenario_names, "one or more scenario names")
+    if isinstance(scenario_names, str) or not isinstance(scenario_names, (list, tuple)) or not scenario_names:
+        raise InvalidParameterError("scenario_names", scenario_names, "a list of one or more scenario names")
+    for name in scenario_names:
+        one_of(name, "scenario", NAMES)  # before anything is written
+    if settings is not None:
+        instance(settings, "settings", SimulationSettings, "a SimulationSettings or None")
+    resume, progress = flag(resume, "resume"), flag(progress, "progress")
+    instance(out_dir, "out_dir", (str, os.PathLike), "a folder path (str or pathlib.Path)")
     settings = SimulationSettings.paper() if settings is None else settings
     n_ticks = _periods(duration, "duration", settings.dt)
     n_long = _periods(diagnosis_duration, "diagnosis_duration", settings.dt) if diagnosis_duration else 0

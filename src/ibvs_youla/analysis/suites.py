@@ -60,6 +60,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._validation import one_of, positive, real, text
 from ..exceptions import InvalidParameterError
 from .compare import Comparison, compare
 
@@ -144,17 +145,15 @@ class GansTask:
     lateral_m: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name:
-            raise InvalidParameterError("name", self.name, "a non-empty string")
-        if self.test not in TESTS:
-            raise InvalidParameterError("test", self.test, " or ".join(repr(t) for t in TESTS))
-        values = (self.rotation_deg, self.retreat_m, self.orbit_deg, *self.lateral_m)
-        if len(self.lateral_m) != 2 or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in values
-        ):
-            raise InvalidParameterError(
-                "task", values, "finite rotation_deg, retreat_m, orbit_deg and lateral_m = (l_x, l_y)"
-            )
+        set_ = object.__setattr__
+        set_(self, "name", text(self.name, "name", empty=False))
+        set_(self, "test", one_of(self.test, "test", TESTS))
+        for field_name in ("rotation_deg", "retreat_m", "orbit_deg"):
+            set_(self, field_name, real(getattr(self, field_name), field_name))
+        lateral = self.lateral_m
+        if isinstance(lateral, str) or np.shape(lateral) != (2,):
+            raise InvalidParameterError("lateral_m", lateral, "(l_x, l_y): two finite numbers [m]")
+        set_(self, "lateral_m", tuple(real(v, "lateral_m") for v in lateral))
         if Z_TARGET + self.retreat_m <= 0.05:
             raise InvalidParameterError(
                 "retreat_m",
@@ -353,6 +352,7 @@ def run_suite(
         InvalidParameterError: an unknown controller, no tasks, a bad duration or rate.
     """
     names = twist_controllers() if controllers is None else tuple(controllers)
+    duration, rate_hz = positive(duration, "duration", unit="s"), positive(rate_hz, "rate_hz", unit="Hz")
     tasks = tuple(tasks)
     if not tasks or not all(isinstance(t, GansTask) for t in tasks):
         raise InvalidParameterError("tasks", tasks, "one or more GansTask")

@@ -42,6 +42,7 @@ from typing import Any
 
 import numpy as np
 
+from .._memory import fits_in_memory
 from .._validation import one_of, positive
 from ..exceptions import InvalidParameterError
 
@@ -124,6 +125,7 @@ def generate_cases(family: str, n: int, seed: int, *, difficulty: float = 1.0) -
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
             raise InvalidParameterError(name, value, f"an integer >= {low}")
     difficulty = positive(difficulty, "difficulty")
+    fits_in_memory(4096.0 * n, "n", n, "fewer cases")  # a case holds its scenario and seed, ~4 kB
     streams = np.random.SeedSequence(int(seed)).spawn(int(n))
     if family in ARM_FAMILIES:
         from ..model.arm import Arm

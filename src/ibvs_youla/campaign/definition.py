@@ -13,7 +13,7 @@ so they need an arm plant.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 from .._validation import one_of, positive
@@ -93,6 +93,8 @@ class CampaignDefinition:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise InvalidParameterError(name, value, f"an integer >= {low}")
+        if not isinstance(self.controllers, (str, list, tuple)):
+            raise InvalidParameterError("controllers", self.controllers, "a list of method labels")
         names = (self.controllers,) if isinstance(self.controllers, str) else tuple(self.controllers)
         methods = [parse_method(label) for label in names]  # raises on a malformed label
         unknown = [
@@ -108,15 +110,31 @@ class CampaignDefinition:
         put("controllers", names)
         put("plant", one_of(self.plant or defaults["plant"], "plant", PLANTS))
         camera = self.camera if self.camera is not None else defaults["camera"]
+        if not isinstance(camera, (str, Mapping)):
+            raise InvalidParameterError("camera", camera, "a camera kind or {'kind': ..., zed2 keywords}")
         camera = {"kind": camera} if isinstance(camera, str) else dict(camera)
         one_of(camera.get("kind"), "camera.kind", CAMERA_KINDS)
         put("camera", camera)
         duration = defaults["duration"] if self.duration is None else self.duration
         put("duration", positive(duration, "duration", unit="s"))
-        settings = dict(defaults["settings"] if self.settings is None else self.settings)
-        SimulationSettings(**settings)  # raises on a bad key or value
+        settings = defaults["settings"] if self.settings is None else self.settings
+        if not isinstance(settings, Mapping):
+            raise InvalidParameterError("settings", settings, "a mapping of SimulationSettings keywords")
+        settings = dict(settings)
+        unknown = sorted(set(settings) - {f.name for f in fields(SimulationSettings)})
+        if unknown:
+            raise InvalidParameterError(
+                "settings", unknown, f"keywords of SimulationSettings ({', '.join(unknown)} is not one)"
+            )
+        SimulationSettings(**settings)  # raises on a bad value
         put("settings", settings)
         put("difficulty", positive(self.difficulty, "difficulty"))
+        if not isinstance(self.controller_params, Mapping) or not all(
+            isinstance(v, Mapping) for v in self.controller_params.values()
+        ):
+            raise InvalidParameterError(
+                "controller_params", self.controller_params, "a mapping method label -> keyword parameters"
+            )
         params = {str(k): dict(v) for k, v in self.controller_params.items()}
         stray = sorted(set(params) - set(names))
         if stray:

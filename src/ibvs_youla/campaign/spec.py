@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validation import integer, positive, text
 from ..exceptions import InvalidParameterError
 
 __all__ = [
@@ -207,13 +208,14 @@ class ExperimentSpec:
 
     def __post_init__(self) -> None:
         for name in ("case", "seed"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-                raise InvalidParameterError(name, value, "an integer >= 0")
-            object.__setattr__(self, name, int(value))
+            object.__setattr__(self, name, integer(getattr(self, name), name, low=0))
+        for name in ("family", "controller", "plant"):
+            object.__setattr__(self, name, text(getattr(self, name), name, empty=False))
         for name in ("scenario", "controller_params", "camera", "settings", "difficulty"):
+            if not isinstance(getattr(self, name), Mapping):
+                raise InvalidParameterError(name, getattr(self, name), "a mapping (JSON object)")
             object.__setattr__(self, name, _plain(getattr(self, name)))
-        object.__setattr__(self, "duration", float(self.duration))
+        object.__setattr__(self, "duration", positive(self.duration, "duration", unit="s"))
 
     def __hash__(self) -> int:
         return hash(self.key)

@@ -15,7 +15,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .base import PROG, one_line
+from .base import PROG, folder_path, one_line
 
 DEFAULT_AXES = "twist,tilt"
 
@@ -37,7 +37,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     from ..campaign.report import AXES
 
     parser.add_argument("dir", type=Path, metavar="DIR", help="campaign folder (it holds DIR/rows)")
-    parser.add_argument("--out", type=Path, metavar="OUT", help="report folder (default: DIR/report)")
+    parser.add_argument("--out", type=folder_path, metavar="OUT", help="report folder (default: DIR/report)")
     parser.add_argument(
         "--axes",
         type=axes_pair,

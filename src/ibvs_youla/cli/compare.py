@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..files import write_text
-from .base import UsageError
+from .base import UsageError, flag_errors
 
 
 def scenario_names() -> tuple[str, ...]:
@@ -43,9 +43,12 @@ def controller_list(text: str) -> tuple[str, ...]:
 
 def run(args: argparse.Namespace, extra: list[str]) -> int:
     """Run the comparison or the suite, write the tables (and figures), print the table; return 0."""
-    if args.suite is not None:
-        return _run_suite(args)
-    return _run_scenario(args)
+    with flag_errors(
+        args, {"duration": "--duration", "camera_rate_hz": "--camera-rate", "rate_hz": "--camera-rate"}
+    ):
+        if args.suite is not None:
+            return _run_suite(args)
+        return _run_scenario(args)
 
 
 def _run_scenario(args: argparse.Namespace) -> int:

@@ -5,9 +5,10 @@ from __future__ import annotations
 import argparse
 
 from ..files import save_figure
-from .base import load_optional_config
+from .base import flag_errors, load_optional_config
 
 DESIGNS = ("inner", "feedforward", "outer", "all")
+FLAGS = {"tau_in": "--tau-in", "omega_n": "--omega-n", "zeta": "--zeta", "tau_forward": "--tau-forward"}
 
 
 def run(args: argparse.Namespace, extra: list[str]) -> int:
@@ -28,9 +29,10 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
         if args.tau_forward is not None
         else (base.tau_forward if args.tau_in is None else None)
     )
-    inner = InnerLoopDesign(tau_in)
-    ff = FeedforwardDesign(tau_in, tau_forward)
-    outer = OuterLoopDesign(omega_n, zeta, tau_in, base.sv_policy)
+    with flag_errors(args, FLAGS):
+        inner = InnerLoopDesign(tau_in)
+        ff = FeedforwardDesign(tau_in, tau_forward)
+        outer = OuterLoopDesign(omega_n, zeta, tau_in, base.sv_policy)
     which = DESIGNS[:3] if args.which == "all" else (args.which,)
     designs = {"inner": inner, "feedforward": ff, "outer": outer}
     print("\n\n".join(describe_design(designs[w]) for w in which))

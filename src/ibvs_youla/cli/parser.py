@@ -10,7 +10,7 @@ from .. import __version__, controllers
 from .. import scenarios as _scenarios
 from ..simulation.simulate import PLANTS
 from . import bench, campaign, campaign_report, compare, design, reproduce, simulate, view
-from .base import PROG, UsageError
+from .base import PROG, UsageError, folder_path
 
 
 class _Parser(argparse.ArgumentParser):
@@ -48,6 +48,11 @@ def build_parser() -> argparse.ArgumentParser:
         "or 1.",
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    parser.add_argument(
+        "--debug",
+        action="store_true",
+        help="on an error, print the traceback too (accepted anywhere before --)",
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     names = ", ".join(_scenarios.NAMES)
 
@@ -57,7 +62,11 @@ def build_parser() -> argparse.ArgumentParser:
         description="rerun the paper's Section 7: runs, Figures 13-16, table",
     )
     p.add_argument(
-        "--out", type=Path, metavar="DIR", default=Path("results"), help="output folder (default: results)"
+        "--out",
+        type=folder_path,
+        metavar="DIR",
+        default=Path("results"),
+        help="output folder (default: results)",
     )
     p.add_argument(
         "--scenarios",
@@ -93,7 +102,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_run_options(p, names)
     p.add_argument(
         "--out",
-        type=Path,
+        type=folder_path,
         metavar="DIR",
         help="output folder (default: results/<scenario>_<controller>_<loop>)",
     )
@@ -125,7 +134,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", action="store_true", help="write Bode, step and pole-zero figures to --out")
     p.add_argument(
         "--out",
-        type=Path,
+        type=folder_path,
         metavar="DIR",
         default=Path("results/design"),
         help="figure folder (default: results/design)",
@@ -168,7 +177,7 @@ def build_parser() -> argparse.ArgumentParser:
         "e.g. ibvs-youla bench simulation --json out -- --duration 1 --repeats 1",
     )
     p.add_argument("which", nargs="?", default="all", choices=(*bench.BENCHMARKS, "all"), help="default: all")
-    p.add_argument("--json", type=Path, metavar="DIR", help="write <benchmark>.json reports here")
+    p.add_argument("--json", type=folder_path, metavar="DIR", help="write <benchmark>.json reports here")
     p.set_defaults(func=bench.run)
 
     p = sub.add_parser(
@@ -213,7 +222,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="camera and control rate [Hz] (default 100 on an arm scenario, 25 for the suite)",
     )
     p.add_argument(
-        "--out", type=Path, metavar="DIR", help="output folder (default: results/compare/<scenario or suite>)"
+        "--out",
+        type=folder_path,
+        metavar="DIR",
+        help="output folder (default: results/compare/<scenario or suite>)",
     )
     p.add_argument("--no-plots", action="store_true", help="skip the figures")
     p.set_defaults(func=compare.run)
@@ -282,7 +294,7 @@ def _add_campaign(sub: Any) -> None:
         metavar="X",
         help="scales the start-target rotation and translation (default 1)",
     )
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="campaign folder")
+    p.add_argument("--out", type=folder_path, required=True, metavar="DIR", help="campaign folder")
     p.add_argument(
         "--scheduler",
         type=campaign.scheduler_address,

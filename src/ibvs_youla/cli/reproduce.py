@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .base import load_optional_config
+from .base import flag_errors, load_optional_config
 
 
 def run(args: argparse.Namespace, extra: list[str]) -> int:
@@ -35,16 +35,17 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
         duration = duration if duration is not None else cfg.duration
     duration = 20.0 if duration is None else duration
     chosen = {} if args.scenarios is None else {"scenario_names": tuple(args.scenarios)}
-    rep = reproduce(
-        args.out,
-        **chosen,
-        duration=duration,
-        diagnosis_duration=args.diagnosis_duration,
-        settings=settings,
-        resume=not args.no_resume,
-        progress=True,
-        plots=not args.no_plots,
-    )
+    with flag_errors(args, {"duration": "--duration", "diagnosis_duration": "--diagnosis-duration"}):
+        rep = reproduce(
+            args.out,
+            **chosen,
+            duration=duration,
+            diagnosis_duration=args.diagnosis_duration,
+            settings=settings,
+            resume=not args.no_resume,
+            progress=True,
+            plots=not args.no_plots,
+        )
     print(rep.table_markdown)
     figures = "" if args.no_plots else " figures/,"
     print(f"wrote {len(rep.paths)} files under {args.out}: table.md, table.json,{figures} runs/")

@@ -15,7 +15,7 @@ from typing import Any
 from .. import scenarios as _scenarios
 from ..exceptions import SimulationDivergedError
 from ..files import write_text
-from .base import PROG, UsageError, load_optional_config, one_line
+from .base import PROG, UsageError, flag_errors, load_optional_config, one_line
 
 
 def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any]:
@@ -61,7 +61,8 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
     out = args.out or Path("results") / f"{scenario.name or 'custom'}_{kwargs['controller']}_{loop}"
     out.mkdir(parents=True, exist_ok=True)
     try:
-        result = simulate(scenario, **kwargs, arm=arm, camera=camera, progress=True)
+        with flag_errors(args, {"duration": "--duration"}):
+            result = simulate(scenario, **kwargs, arm=arm, camera=camera, progress=True)
     except SimulationDivergedError as err:
         where = "no samples recorded"
         if err.partial is not None:

@@ -28,7 +28,7 @@ import control as ct
 import numpy as np
 from scipy.signal import cont2discrete
 
-from .._validation import as_array, one_of, positive
+from .._validation import as_array, integer, one_of, positive
 from ..exceptions import InvalidArrayError, InvalidParameterError
 
 __all__ = ["METHODS", "DiscreteFilter"]
@@ -68,10 +68,8 @@ class DiscreteFilter:
         D_arr = as_array(D, "D").reshape(-1)
         if D_arr.shape != (1,):
             raise InvalidArrayError("D", f"an array of shape {D_arr.shape}", "a scalar (SISO filter)")
-        if isinstance(n_channels, bool) or not isinstance(n_channels, (int, np.integer)) or n_channels < 1:
-            raise InvalidParameterError("n_channels", n_channels, "an integer >= 1")
+        m = integer(n_channels, "n_channels", low=1)
         self._dt = positive(dt, "dt", unit="s")
-        m = int(n_channels)
         self._A = A.copy()
         self._B = B.reshape(n, 1).copy()  # column, broadcasts against u (m,)
         self._C = C.copy()
@@ -104,7 +102,7 @@ class DiscreteFilter:
             The discrete filter, all states zero.
         """
         one_of(method, "method", METHODS)
-        positive(dt, "dt", unit="s")
+        dt = positive(dt, "dt", unit="s")
         if not isinstance(sys, (ct.TransferFunction, ct.StateSpace)) or not sys.issiso():
             raise InvalidParameterError("sys", sys, "a SISO control.TransferFunction or StateSpace")
         if sys.isdtime(strict=True):

@@ -41,13 +41,18 @@ from typing import Any
 import control as ct
 import numpy as np
 
-from .._validation import as_array, positive
+from .._memory import fits_in_memory
+from .._validation import as_array, integer, positive, real
 from ..exceptions import InvalidParameterError
 from .discrete import DiscreteFilter
 from .inner import InnerLoopDesign
 from .trajectory import MinimumJerkTrajectory
 
-__all__ = ["FeedforwardDesign", "FeedforwardRuntime", "MinimumJerkTrajectory"]
+__all__ = ["TAU_FORWARD_RATIO_RANGE", "FeedforwardDesign", "FeedforwardRuntime", "MinimumJerkTrajectory"]
+
+# tau_forward / tau_in accepted (the paper's is 0.1): T_forward's high-frequency gain
+# tau_in^2/(3 tau_f^2) stays between 3e-7 (above round-off when T_forward is realized) and 3e11.
+TAU_FORWARD_RATIO_RANGE = (1e-6, 1e3)
 
 
 @dataclass(frozen=True)
@@ -55,17 +60,27 @@ class FeedforwardDesign:
     """The paper's feedforward T_forward (Eq. (47)-(49)) and its runtimes.
 
     Attributes:
-        tau_in: Inner-loop time constant [s] (Eq. (41), (63)).
-        tau_forward: Time constant of the added double pole [s]; ``None`` (default)
-            means 0.1 tau_in (Eq. (49), (65)) and is resolved at construction.
+        tau_in: Inner-loop time constant [s] (Eq. (41), (63)), in
+            :data:`~ibvs_youla.control.inner.TAU_IN_RANGE_S`.
+        tau_forward: Time constant of the added double pole [s], tau_in times a ratio in
+            :data:`TAU_FORWARD_RATIO_RANGE`; ``None`` (default) means 0.1 tau_in (Eq. (49),
+            (65)) and is resolved at construction.
+
+    Raises:
+        InvalidParameterError: a time constant that is not a real number in its range.
     """
 
     tau_in: float = 0.01
     tau_forward: float | None = None
 
     def __post_init__(self) -> None:
-        tau_in = positive(self.tau_in, "tau_in", unit="s")
-        tau_f = 0.1 * tau_in if self.tau_forward is None else positive(self.tau_forward, "tau_forward")
+        tau_in = InnerLoopDesign(self.tau_in).tau_in
+        low, high = (r * tau_in for r in TAU_FORWARD_RATIO_RANGE)
+        tau_f = (
+            0.1 * tau_in
+            if self.tau_forward is None
+            else real(self.tau_forward, "tau_forward", unit="s (1e-6 to 1e3 tau_in)", low=low, high=high)
+        )
         object.__setattr__(self, "tau_in", tau_in)
         object.__setattr__(self, "tau_forward", tau_f)
 
@@ -134,8 +149,7 @@ class FeedforwardDesign:
             outputs: the joint angles q (outputs 0..n-1), then the speeds dq
             (outputs n..2n-1). The DC gain from q_des to q is 1.
         """
-        if isinstance(n_joints, bool) or not isinstance(n_joints, (int, np.integer)) or n_joints < 1:
-            raise InvalidParameterError("n_joints", n_joints, "an integer >= 1")
+        n = integer(n_joints, "n_joints", low=1)
         ff = DiscreteFilter.from_tf(self.filter_tf(), dt, 1, method="zoh")
         gc = self.inner.discrete_controller(dt, 1, method="tustin")  # checks 0 < dt <= tau_in
         dt = ff.dt
@@ -145,7 +159,6 @@ class FeedforwardDesign:
         plant = ct.c2d(double_integrator, dt, "zoh")  # outputs (q, dq)
         loop = ct.feedback(plant * gcd, np.array([[1.0, 0.0]]))  # v = G_C (q_ff - q)
         siso = loop * ffd  # 1 input q_des, outputs (q, dq)
-        n = int(n_joints)
         if n == 1:
             return siso
         stacked = ct.append(*([siso] * n))  # outputs q_1, dq_1, q_2, dq_2, ...
@@ -178,7 +191,10 @@ class FeedforwardDesign:
         dt = float(sys.dt)
         if horizon is None:
             horizon = 20.0 * self.tau_in + 200.0 * dt
-        n = math.ceil(positive(horizon, "horizon", unit="s") / dt) + 1
+        samples = positive(horizon, "horizon", unit="s") / dt + 1.0  # a float: inf for 1e308 s
+        # python-control's step response holds the time, the state (9) and the outputs (2)
+        fits_in_memory(8.0 * 12.0 * samples, "horizon", horizon, "a shorter horizon or a larger dt")
+        n = math.ceil(samples)
         y = ct.step_response(sys, np.arange(n) * dt).outputs[:, 0, :]
         peak_speed = float(np.max(np.abs(y[1])))
         overshoot = max(float(np.max(y[0])) - 1.0, 0.0)
@@ -193,7 +209,7 @@ class FeedforwardDesign:
         """
         q0 = as_array(q_start, "q_start", (None,))
         q1 = as_array(q_des, "q_des", q0.shape)
-        filt = DiscreteFilter.from_tf(self.filter_tf(), dt, q0.size, method="zoh")
+        filt = DiscreteFilter.from_tf(self.filter_tf(), self._check_dt(dt), q0.size, method="zoh")
         return FeedforwardRuntime(filt, q0, q1, None)
 
     def smooth_runtime(
@@ -214,8 +230,22 @@ class FeedforwardDesign:
         traj = MinimumJerkTrajectory.within_speed_limits(
             q_start, q_des, speed_limits, fraction=speed_fraction, min_duration=min_duration
         )
-        filt = DiscreteFilter.from_tf(self.filter_tf(), dt, traj.q_start.size, method="foh")
+        filt = DiscreteFilter.from_tf(self.filter_tf(), self._check_dt(dt), traj.q_start.size, method="foh")
         return FeedforwardRuntime(filt, traj.q_start, traj.q_des, traj)
+
+    def _check_dt(self, dt: Any) -> float:
+        """A sampling period > 0 not below 1e-8 of the slowest pole's time constant.
+
+        Slower poles map to within 1e-8 of z = 1: the filter would hold an integrator where
+        T_forward has none, and could not start at rest at q_start.
+        """
+        dt = positive(dt, "dt", unit="s")
+        slowest = max(self.tau_forward, 3.0 * self.tau_in)
+        if dt < 1e-8 * slowest:
+            raise InvalidParameterError(
+                "dt", dt, f"a sampling period >= 1e-8 times T_forward's slowest time constant ({slowest:g} s)"
+            )
+        return dt
 
 
 class FeedforwardRuntime:

@@ -27,11 +27,16 @@ from dataclasses import dataclass
 import control as ct
 import numpy as np
 
-from .._validation import positive
+from .._validation import flag, integer, positive, real
 from ..exceptions import InvalidParameterError
 from .discrete import DiscreteFilter
 
-__all__ = ["InnerLoopDesign"]
+__all__ = ["TAU_IN_RANGE_S", "InnerLoopDesign"]
+
+# Time constants the designs accept [s]: beyond them the cubes of tau in the polynomials of
+# Eq. (41)-(48) lose the dynamic range that python-control's realizations and the
+# discretizations need (1e-300 underflows, 1e200 overflows).
+TAU_IN_RANGE_S = (1e-6, 1e3)
 
 
 @dataclass(frozen=True)
@@ -39,15 +44,19 @@ class InnerLoopDesign:
     """SISO Youla design of the joint loop, duplicated on every joint (Eq. (36)).
 
     Attributes:
-        tau_in: Time constant [s]; the three closed-loop poles sit at -1/tau_in
-            (paper: 0.01 s, Eq. (63)). (Named as everywhere else in the library: ``tau``
-            alone is never a time constant here, since it names the joint torques.)
+        tau_in: Time constant [s], in :data:`TAU_IN_RANGE_S`; the three closed-loop poles sit
+            at -1/tau_in (paper: 0.01 s, Eq. (63)). (Named as everywhere else in the library:
+            ``tau`` alone is never a time constant here, since it names the joint torques.)
+
+    Raises:
+        InvalidParameterError: ``tau_in`` is not a real number in :data:`TAU_IN_RANGE_S`.
     """
 
     tau_in: float = 0.01
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "tau_in", positive(self.tau_in, "tau_in", unit="s"))
+        low, high = TAU_IN_RANGE_S
+        object.__setattr__(self, "tau_in", real(self.tau_in, "tau_in", unit="s", low=low, high=high))
 
     # ------------------------------------------------------------------ transfer functions
     def plant(self) -> ct.TransferFunction:
@@ -95,7 +104,7 @@ class InnerLoopDesign:
             controller they are all -1/tau (numerically spread by ~1e-5 relative,
             as a triple root is ill-conditioned).
         """
-        gc = self.printed_controller() if printed else self.controller()
+        gc = self.printed_controller() if flag(printed, "printed") else self.controller()
         num = np.asarray(gc.num[0][0], dtype=float)
         den = np.asarray(gc.den[0][0], dtype=float)
         char = np.polyadd(np.polymul(den, [1.0, 0.0, 0.0]), num)
@@ -133,8 +142,8 @@ class InnerLoopDesign:
             n_joints: Number of joints (channels).
             method: ``"tustin"`` (default) or ``"zoh"``.
         """
-        self._check_dt(dt)
-        return DiscreteFilter.from_tf(self.controller(), dt, n_joints, method=method)
+        dt, n = self._check_dt(dt), integer(n_joints, "n_joints", low=1)
+        return DiscreteFilter.from_tf(self.controller(), dt, n, method=method)
 
     def discrete_closed_loop(self, dt: float = 1e-3, n_joints: int = 6) -> DiscreteFilter:
         """T_in (Eq. (46)) as a ZOH-discretized filter: q = filt.step(q_ref).
@@ -143,10 +152,12 @@ class InnerLoopDesign:
         exact when q_ref is held between samples, as the outer loop holds it.
         Initialise at rest at q0 with ``reset_steady_state(q0)``.
         """
-        self._check_dt(dt)
-        return DiscreteFilter.from_tf(self.complementary_sensitivity(), dt, n_joints, method="zoh")
+        dt = self._check_dt(dt)
+        n = integer(n_joints, "n_joints", low=1)
+        return DiscreteFilter.from_tf(self.complementary_sensitivity(), dt, n, method="zoh")
 
-    def _check_dt(self, dt: float) -> None:
+    def _check_dt(self, dt: float) -> float:
         dt = positive(dt, "dt", unit="s")
         if dt > self.tau_in:
             raise InvalidParameterError("dt", dt, f"a sampling period in (0, tau_in = {self.tau_in}] s")
+        return dt

@@ -33,6 +33,7 @@ replaces 1/sigma_i in Eq. (57) by a bounded gain g(sigma_i)
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,12 +41,26 @@ import control as ct
 import numpy as np
 from scipy.optimize import brentq
 
-from .._validation import as_array, frequencies, positive
-from ..exceptions import InvalidParameterError
+from .._validation import as_array, frequencies, instance, integer, positive, real
+from ..exceptions import InvalidArrayError, InvalidParameterError
 from .discrete import DiscreteFilter
+from .inner import InnerLoopDesign
 from .singular_values import SingularValuePolicy, SvdGains
 
-__all__ = ["OuterLoopController", "OuterLoopDesign", "SingularValuePolicy", "SvdGains"]
+__all__ = [
+    "OMEGA_N_TAU_IN_MIN",
+    "ZETA_RANGE",
+    "OuterLoopController",
+    "OuterLoopDesign",
+    "SingularValuePolicy",
+    "SvdGains",
+]
+
+# Smallest omega_n tau_in accepted (Section 6.3 requires < 1): below it K(s)'s feedthrough
+# omega^2 tau^2/3 is lost to round-off when K is realized (scipy trims it as zero).
+OMEGA_N_TAU_IN_MIN = 1e-6
+ZETA_RANGE = (1e-6, 1e12)  # damping ratios accepted: K(z) stays realizable in double precision
+_EPS = float(np.finfo(float).eps)
 
 
 @dataclass(frozen=True)
@@ -53,11 +68,16 @@ class OuterLoopDesign:
     """Outer Youla design; collapses to q_fb = J^+ K(s) e (Eq. (53)-(61), ERRATA 9).
 
     Attributes:
-        omega_n: Natural frequency of M_T [rad/s] (Eq. (56), (64)).
-        zeta: Damping ratio of M_T (Eq. (56), (66)).
-        tau_in: Inner-loop time constant [s] (Eq. (41), (63)). Section 6.3 requires
-            1/omega_n > tau_in; violating it raises InvalidParameterError.
+        omega_n: Natural frequency of M_T [rad/s] (Eq. (56), (64)), in
+            [:data:`OMEGA_N_TAU_IN_MIN` / tau_in, 1 / tau_in): Section 6.3 requires 1/omega_n > tau_in.
+        zeta: Damping ratio of M_T (Eq. (56), (66)), in :data:`ZETA_RANGE`.
+        tau_in: Inner-loop time constant [s] (Eq. (41), (63)), in
+            :data:`~ibvs_youla.control.inner.TAU_IN_RANGE_S`.
         sv_policy: Small-singular-value policy (ERRATA 7).
+
+    Raises:
+        InvalidParameterError: a gain that is not a real number in its range, or a policy
+            that is not a :class:`SingularValuePolicy`.
     """
 
     omega_n: float = 10.0
@@ -66,15 +86,20 @@ class OuterLoopDesign:
     sv_policy: SingularValuePolicy = field(default_factory=SingularValuePolicy)
 
     def __post_init__(self) -> None:
-        w = positive(self.omega_n, "omega_n", unit="rad/s")
-        positive(self.zeta, "zeta")
-        tau = positive(self.tau_in, "tau_in", unit="s")
-        if w * tau >= 1.0:
-            raise InvalidParameterError(
-                "omega_n", self.omega_n, f"(0, 1/tau_in) = (0, {1.0 / tau:g}) rad/s (Section 6.3)"
-            )
-        if not isinstance(self.sv_policy, SingularValuePolicy):
-            raise InvalidParameterError("sv_policy", self.sv_policy, "a SingularValuePolicy")
+        set_ = object.__setattr__
+        tau = InnerLoopDesign(self.tau_in).tau_in
+        w_min, w_max = OMEGA_N_TAU_IN_MIN / tau, 1.0 / tau
+        valid = f"a number in [{OMEGA_N_TAU_IN_MIN:g}/tau_in, 1/tau_in = {w_max:g}) rad/s (Section 6.3)"
+        try:
+            w = real(self.omega_n, "omega_n", low=w_min, high=w_max, high_open=True)
+        except InvalidParameterError:
+            raise InvalidParameterError("omega_n", self.omega_n, valid) from None
+        if w * tau >= 1.0:  # below 1/tau_in, yet not by round-off
+            raise InvalidParameterError("omega_n", self.omega_n, valid)
+        set_(self, "tau_in", tau)
+        set_(self, "omega_n", w)
+        set_(self, "zeta", real(self.zeta, "zeta", low=ZETA_RANGE[0], high=ZETA_RANGE[1]))
+        instance(self.sv_policy, "sv_policy", SingularValuePolicy, "a SingularValuePolicy")
 
     # ------------------------------------------------------------------ SISO pieces
     def inner_tf(self) -> ct.TransferFunction:
@@ -88,34 +113,68 @@ class OuterLoopDesign:
         return ct.tf([w**2], [1.0, 2.0 * z * w, w**2])
 
     def target_poles(self) -> np.ndarray:
-        """Poles of m_T [rad/s], -zeta omega +/- omega sqrt(zeta^2 - 1), slowest first."""
-        p = np.roots([1.0, 2.0 * self.zeta * self.omega_n, self.omega_n**2])
-        return p[np.argsort(-p.real)]
+        """Poles of m_T [rad/s], -zeta omega +/- omega sqrt(zeta^2 - 1), slowest first.
+
+        Overdamped, the slow pole is computed as -omega / (zeta + sqrt(zeta^2 - 1)) (their
+        product is omega^2): the textbook -zeta omega + omega sqrt(zeta^2 - 1) cancels to 0
+        for zeta >~ 1e8.
+        """
+        w, z = self.omega_n, self.zeta
+        if z < 1.0:
+            wd = w * math.sqrt((1.0 - z) * (1.0 + z))
+            return np.array([complex(-z * w, wd), complex(-z * w, -wd)])
+        root = z * math.sqrt((1.0 - 1.0 / z) * (1.0 + 1.0 / z))  # sqrt(zeta^2 - 1), no overflow
+        return np.array([-w / (z + root), -w * (z + root)], dtype=complex)
 
     def settling_time(self, threshold: float = 0.02) -> float:
         """Last time m_T's step response is outside 1 +/- ``threshold`` [s] (ERRATA 10).
 
-        Exact response y = 1 - e^(-zeta w t) (cosh(b t) + zeta w sinh(b t)/b),
-        b = w sqrt(zeta^2 - 1) (imaginary when zeta < 1); the last crossing is bracketed
-        on a 4001-sample grid over 12/|Re p_slow| and refined with Brent's method.
+        With the poles p_1, p_2 of :meth:`target_poles`, the error e = y - 1 of the step
+        response is, overdamped, (p_2 e^(p_1 t) - p_1 e^(p_2 t))/(p_1 - p_2), monotone, so the
+        settling time is the one root of |e| = threshold; critically damped, e^(-omega t)
+        (1 + omega t), also monotone. Underdamped, |e| peaks at e^(-zeta omega t_k) at
+        t_k = k pi/omega_d (omega_d = omega sqrt(1 - zeta^2)); the last exit lies between the last
+        peak above the threshold and the next zero of e. Each root is bracketed exactly and
+        refined with Brent's method to a relative 1e-12 (in the time scaled by the slow pole).
+
+        Args:
+            threshold: Half-width of the band around 1, in (0, 1); 0.02 for the 2 % time.
+
+        Raises:
+            InvalidParameterError: ``threshold`` outside (0, 1).
         """
-        thr = positive(threshold, "threshold")
+        thr = real(threshold, "threshold", low=0.0, high=1.0, low_open=True, high_open=True)
         w, z = self.omega_n, self.zeta
-        b = w * np.sqrt(complex(z * z - 1.0))
+        if z < 1.0:
+            s = math.sqrt((1.0 - z) * (1.0 + z))  # omega_d / omega
+            phase = z / s
 
-        def err(t: Any) -> Any:  # |y(t) - 1| - thr, for scalar or array t
-            if abs(b) < 1e-6 * w:  # critically damped limit
-                return np.exp(-w * t) * (1.0 + w * t) - thr
-            a, c = np.exp((b - z * w) * t), np.exp(-(b + z * w) * t)  # no overflow: Re(b) <= z w
-            return np.abs(((a + c) / 2.0 + z * w * (a - c) / (2.0 * b)).real) - thr
+            def err(x: float) -> float:  # x = omega_d t
+                return math.exp(-phase * x) * abs(math.cos(x) + phase * math.sin(x)) - thr
 
-        t_end = 12.0 / abs(float(self.target_poles()[0].real)) * max(1.0, np.log(0.02 / min(thr, 0.02)) + 1.0)
-        t = np.linspace(0.0, t_end, 4001)
-        outside = np.nonzero(err(t) > 0.0)[0]
-        if outside.size == 0:
-            return 0.0
-        k = outside[-1]
-        return float(brentq(err, t[k], t[k + 1], xtol=1e-9)) if k + 1 < t.size else float("inf")
+            k = math.floor(math.log(1.0 / thr) / (phase * math.pi))  # last peak e^(-phase k pi) above thr
+            if math.exp(-phase * math.pi * k) <= thr:  # on the boundary by round-off
+                k -= 1
+            start = k * math.pi
+            zero = start + math.pi - math.atan(1.0 / phase)  # next zero of cos x + phase sin x
+            x = brentq(err, start, zero, xtol=1e-12 * max(zero, 1.0), rtol=4 * _EPS)
+            return x / (w * s)
+        slow, fast = -self.target_poles().real  # |p_1| <= |p_2|
+        if fast - slow <= 1e-6 * slow:  # critically damped (or within 1e-6 of it)
+
+            def err(x: float) -> float:  # x = omega t
+                return math.exp(-x) * (1.0 + x) - thr
+
+            x_hi = 2.0 * math.log(2.0 / thr)  # e^-x (1 + x) <= 1.22 e^(-x/2) <= thr beyond
+            return brentq(err, 0.0, x_hi, xtol=1e-12 * x_hi, rtol=4 * _EPS) / w
+        ratio = fast / slow  # >= 1, may be huge (zeta = 1e12: 4e24)
+        a, b = 1.0 / (1.0 - 1.0 / ratio), 1.0 / (ratio - 1.0)  # |e| = a e^-x - b e^(-ratio x), x = |p_1| t
+
+        def err(x: float) -> float:
+            return a * math.exp(-x) - b * math.exp(-ratio * x) - thr
+
+        x_hi = math.log(a / thr) + 1e-3  # a e^-x < thr there, so |e| < thr (by 1e-3 thr: no round-off tie)
+        return brentq(err, 0.0, x_hi, xtol=1e-12 * x_hi, rtol=4 * _EPS) / slow
 
     def filter_tf(self) -> ct.TransferFunction:
         """K(s) = omega^2 (tau s + 1)^3 / (s (s + 2 zeta omega)(3 tau s + 1)) (ERRATA 9)."""
@@ -150,7 +209,8 @@ class OuterLoopDesign:
         self, dt: float, n_joints: int = 6, J: Any = None, method: str = "tustin"
     ) -> OuterLoopController:
         """Discrete outer controller at the camera rate; see :class:`OuterLoopController`."""
-        return OuterLoopController(self, dt, n_joints=n_joints, J=J, method=method)
+        dt, n = positive(dt, "dt", unit="s"), integer(n_joints, "n_joints", low=1)
+        return OuterLoopController(self, dt, n_joints=n, J=J, method=method)
 
 
 class OuterLoopController:
@@ -233,6 +293,10 @@ class OuterLoopController:
         """
         if J is not None:
             J = as_array(J, "J", (None, self._n))
+            if J.shape[0] == 0:
+                raise InvalidArrayError(
+                    "J", f"an array of shape {J.shape}", f"shape (m, {self._n}) with m >= 1"
+                )
             return self.advance(as_array(e_image, "e_image", (J.shape[0],)), J).copy()
         if self._fixed is None:
             raise InvalidParameterError("J", None, "an (m, n) Jacobian: no fixed Jacobian was set")

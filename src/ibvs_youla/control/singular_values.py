@@ -14,8 +14,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .._linalg import svd
-from .._validation import as_array, non_negative, one_of
-from ..exceptions import InvalidParameterError, SingularConfigurationError
+from .._validation import as_array, integer, one_of, real
+from ..exceptions import InvalidArrayError, SingularConfigurationError
 
 __all__ = ["SingularValuePolicy", "SvdGains"]
 
@@ -75,10 +75,8 @@ class SingularValuePolicy:
     threshold: float = 1e-3
 
     def __post_init__(self) -> None:
-        one_of(self.kind, "kind", ("damped", "truncate"))
-        thr = non_negative(self.threshold, "threshold")
-        if thr >= 1.0:
-            raise InvalidParameterError("threshold", self.threshold, "a number in [0, 1) (times sigma_max)")
+        object.__setattr__(self, "kind", one_of(self.kind, "kind", ("damped", "truncate")))
+        thr = real(self.threshold, "threshold", low=0.0, high=1.0, high_open=True, unit="(times sigma_max)")
         object.__setattr__(self, "threshold", thr)
 
     def gains(self, sigma: Any, size: int | None = None) -> np.ndarray:
@@ -92,7 +90,7 @@ class SingularValuePolicy:
             SingularConfigurationError: every singular value is zero (or there is none).
         """
         s = as_array(sigma, "sigma", (None,))
-        return np.array(self._gains(s.tolist(), size or s.size))
+        return np.array(self._gains(s.tolist(), s.size if size is None else integer(size, "size", low=1)))
 
     def _gains(self, sigma: list[float], size: int) -> list[float]:
         """g(sigma_i) of descending singular values, in scalar arithmetic (class docstring)."""
@@ -110,7 +108,10 @@ class SingularValuePolicy:
 
     def decompose(self, J: Any) -> SvdGains:
         """Economy SVD of J (m, n), the gains and the regularized pseudo-inverse V diag(g) U^T."""
-        return SvdGains.from_svd(*self.svd_gains(as_array(J, "J", (None, None))))
+        J = as_array(J, "J", (None, None))
+        if J.size == 0:
+            raise InvalidArrayError("J", f"an array of shape {J.shape}", "a Jacobian with rows and columns")
+        return SvdGains.from_svd(*self.svd_gains(J))
 
     def svd_gains(self, J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(U, sigma, gains, Vt) of J (m, n): `decompose` without the pseudo-inverse.

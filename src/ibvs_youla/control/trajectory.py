@@ -7,14 +7,13 @@ the peak joint speed stays at a chosen fraction of the speed limits. It feeds th
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from .._validation import as_array, positive
-from ..exceptions import InvalidArrayError, InvalidParameterError
+from .._validation import as_array, positive, real
+from ..exceptions import InvalidArrayError
 
 __all__ = ["MinimumJerkTrajectory"]
 
@@ -72,9 +71,7 @@ class MinimumJerkTrajectory:
         vmax = as_array(speed_limits, "speed_limits", q0.shape)
         if np.any(vmax <= 0.0):
             raise InvalidArrayError("speed_limits", f"{vmax.tolist()}", "entries > 0 [rad/s]")
-        fraction = positive(fraction, "fraction")
-        if fraction > 1.0:
-            raise InvalidParameterError("fraction", fraction, "a number in (0, 1]")
+        fraction = real(fraction, "fraction", low=0.0, low_open=True, high=1.0)
         t_min = positive(min_duration, "min_duration", unit="s")
         needed = float(np.max(_PEAK_SPEED * np.abs(q1 - q0) / (fraction * vmax)))
         return cls(q0, q1, max(t_min, needed))
@@ -101,10 +98,4 @@ class MinimumJerkTrajectory:
 
     def _phase(self, t: float) -> float:
         """Phase s = t/duration clipped to [0, 1]; NaN and +-inf are rejected (min/max would pass NaN on)."""
-        try:
-            tf_ = float(t)
-        except (TypeError, ValueError):
-            raise InvalidParameterError("t", t, "a finite time [s]") from None
-        if not math.isfinite(tf_):
-            raise InvalidParameterError("t", t, "a finite time [s]")
-        return min(max(tf_ / self.duration, 0.0), 1.0)
+        return min(max(real(t, "t", unit="s") / self.duration, 0.0), 1.0)

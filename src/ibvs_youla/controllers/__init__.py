@@ -25,6 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from .._validation import flag, text
 from ..exceptions import InvalidParameterError
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
 from .youla import VARIANTS, YoulaController, YoulaSettings
@@ -72,7 +73,7 @@ def register(
         raise InvalidParameterError("name", name, f"a new non-empty name (taken: {', '.join(_REGISTRY)})")
     if not callable(factory):
         raise InvalidParameterError("factory", type(factory).__name__, "a callable returning a Controller")
-    _REGISTRY[name] = _Entry(factory, summary, youla_settings)
+    _REGISTRY[name] = _Entry(factory, text(summary, "summary"), flag(youla_settings, "youla_settings"))
 
 
 def names() -> tuple[str, ...]:

@@ -126,6 +126,13 @@ class ServoTask:
         q_start: Encoder reading at the start (n,) [rad]; ``None`` without an arm.
         q_target: Joint configuration of the target (n,) [rad]; ``None`` without an arm.
         T_O_C_start: Camera pose at the start (4, 4), as the controller believes it.
+
+    Raises:
+        InvalidArrayError: non-finite or mis-shaped arrays, coincident or collinear markers
+            (DegenerateMarkersError), a pose that is not a rigid transform.
+        InvalidParameterError: a period that is not a real number > 0, ``virtual_points`` not
+            True or False, ``arm`` not an Arm. (The camera is checked by each controller at
+            reset, against what it needs.)
     """
 
     camera: Any
@@ -139,6 +146,27 @@ class ServoTask:
     q_start: np.ndarray | None = None
     q_target: np.ndarray | None = None
     T_O_C_start: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        from .._validation import as_array, as_pose, flag, instance, positive
+        from ..estimation.stereo_pose import check_marker_geometry
+        from ..model.arm import Arm
+
+        set_ = object.__setattr__
+        set_(self, "markers_O", check_marker_geometry(self.markers_O, "markers_O"))
+        set_(self, "feature_target", as_array(self.feature_target, "feature_target", (None,)))
+        set_(self, "T_O_C_target", as_pose(self.T_O_C_target, "T_O_C_target"))
+        set_(self, "tick_period", positive(self.tick_period, "tick_period", unit="s"))
+        set_(self, "frame_period", positive(self.frame_period, "frame_period", unit="s"))
+        set_(self, "virtual_points", flag(self.virtual_points, "virtual_points"))
+        if self.arm is not None:
+            instance(self.arm, "arm", Arm, "an Arm or None (the free-flying camera)")
+        n = (self.arm.nq,) if self.arm is not None else (None,)
+        for name in ("q_start", "q_target"):
+            if getattr(self, name) is not None:
+                set_(self, name, as_array(getattr(self, name), name, n))
+        if self.T_O_C_start is not None:
+            set_(self, "T_O_C_start", as_pose(self.T_O_C_start, "T_O_C_start"))
 
     @property
     def n_points(self) -> int:

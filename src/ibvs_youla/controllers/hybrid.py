@@ -30,8 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import non_negative, one_of
-from ..exceptions import InvalidParameterError
+from .._validation import integer, non_negative, one_of
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
 from .ibvs import ClassicalIBVS
 from .pbvs import PBVS
@@ -65,9 +64,7 @@ class HybridSwitched(Controller):
         self.gain = self._pbvs.gain
         self.margin = non_negative(margin, "margin")
         self.start_mode = one_of(start_mode, "start_mode", MODES)
-        if isinstance(min_dwell, bool) or not isinstance(min_dwell, (int, np.integer)) or min_dwell < 1:
-            raise InvalidParameterError("min_dwell", min_dwell, "an integer >= 1 [frames]")
-        self.min_dwell = int(min_dwell)
+        self.min_dwell = integer(min_dwell, "min_dwell", low=1, unit="[frames]")
 
     def spec(self) -> dict[str, Any]:
         """Gain, margin, start mode and dwell."""

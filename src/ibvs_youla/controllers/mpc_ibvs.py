@@ -77,7 +77,8 @@ from typing import Any
 import numpy as np
 import qpsolvers
 
-from .._validation import non_negative, one_of, positive
+from .._memory import fits_in_memory
+from .._validation import integer, non_negative, one_of, positive
 from ..exceptions import InvalidParameterError
 from ..model.camera import StereoCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
@@ -120,9 +121,7 @@ def _image_box(camera: Any, half_extent: float, margin: float) -> tuple[np.ndarr
 
 
 def _horizon(value: Any) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise InvalidParameterError("horizon", value, "an integer >= 1 [frames]")
-    return int(value)
+    return integer(value, "horizon", low=1, unit="[frames]")
 
 
 class MpcIBVS(Controller):
@@ -175,7 +174,7 @@ class MpcIBVS(Controller):
         self.omega_max = positive(omega_max, "omega_max", unit="rad/s")
         self.margin = non_negative(margin, "margin")
         self.image_half_extent = positive(image_half_extent, "image_half_extent")
-        if solver not in qpsolvers.available_solvers:
+        if not isinstance(solver, str) or solver not in qpsolvers.available_solvers:
             raise InvalidParameterError(
                 "solver",
                 solver,
@@ -232,8 +231,15 @@ class MpcIBVS(Controller):
                 self.margin,
                 f"a box that contains the target features (worst by {-slack.min():.3g} feature units)",
             )
-        super().reset(task)
         N, F = self.horizon, camera.focal_length
+        # P (6N x 6N, and R), G (image rows N x 6N), W, lower: refuse a horizon beyond memory
+        fits_in_memory(
+            8.0 * (2 * (6 * N) ** 2 + 4 * A_img.shape[0] * N * 6 * N + 2 * N * N),
+            "horizon",
+            self.horizon,
+            "a shorter horizon",
+        )
+        super().reset(task)
         lower = np.tril(np.ones((N, N)))  # row j-1: V_j = sum_{i<j} v_i
         self._rows, self._target, self._F, self._T = rows, target, F, T
         self._A_img, self._b_img = A_img, b_img / F  # A_img (s / F) <= b_img / F, on normalized features

@@ -70,7 +70,7 @@ import numpy as np
 
 from .._geometry import inverse_pose, transform_points
 from .._linalg import svd
-from .._validation import one_of, positive
+from .._validation import integer, one_of, positive
 from ..estimation.monocular_pose import estimate_camera_pose
 from ..exceptions import InvalidParameterError, PointBehindCameraError, PoseEstimationError
 from ..model.camera import PinholeCamera
@@ -221,11 +221,15 @@ class TwoHalfD(Controller):
     ) -> None:
         self.gain = positive(gain, "gain", unit="1/s")
         self.rotation_from = one_of(rotation_from, "rotation_from", ROTATION_SOURCES)
-        if reference_point != "centroid" and (
-            isinstance(reference_point, bool) or not isinstance(reference_point, (int, np.integer))
-        ):
-            raise InvalidParameterError("reference_point", reference_point, "'centroid' or a marker index")
-        self.reference_point = reference_point if reference_point == "centroid" else int(reference_point)
+        if isinstance(reference_point, str) and reference_point == "centroid":
+            self.reference_point: str | int = "centroid"
+        else:
+            try:
+                self.reference_point = integer(reference_point, "reference_point", low=0)
+            except InvalidParameterError:
+                raise InvalidParameterError(
+                    "reference_point", reference_point, "'centroid' or a marker index >= 0"
+                ) from None
 
     def spec(self) -> dict[str, Any]:
         """Name, class, gain [1/s], rotation source and reference point."""

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import one_of, positive
+from .._validation import flag, instance, one_of, real
 from ..control.feedforward import FeedforwardDesign
 from ..control.outer import OuterLoopDesign
 from ..control.singular_values import SingularValuePolicy
@@ -56,12 +56,6 @@ VARIANTS = {"fb": "feedback only", "ff+fb": "feedforward + feedback"}
 FEEDFORWARD_KINDS = ("paper", "smooth")
 LINEARIZE_AT = ("start", "target")
 BRANCH_PRIORS = ("encoders", "previous")
-
-
-def _flag(value: Any, name: str) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise InvalidParameterError(name, value, "True or False")
-    return bool(value)
 
 
 @dataclass(frozen=True)
@@ -101,25 +95,18 @@ class YoulaSettings:
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
-        set_(self, "tau_in", positive(self.tau_in, "tau_in", unit="s"))
-        set_(self, "omega_n", positive(self.omega_n, "omega_n", unit="rad/s"))
-        set_(self, "zeta", positive(self.zeta, "zeta"))
-        if self.omega_n * self.tau_in >= 1.0:
-            raise InvalidParameterError(
-                "omega_n", self.omega_n, f"(0, 1/tau_in) = (0, {1.0 / self.tau_in:g}) rad/s (Section 6.3)"
-            )
+        # the designs validate and normalise the gains they use, with the same names and ranges
+        outer = OuterLoopDesign(self.omega_n, self.zeta, self.tau_in, self.sv_policy)
+        for name in ("tau_in", "omega_n", "zeta"):
+            set_(self, name, getattr(outer, name))
         if self.tau_forward is not None:
-            set_(self, "tau_forward", positive(self.tau_forward, "tau_forward", unit="s"))
-        one_of(self.feedforward, "feedforward", FEEDFORWARD_KINDS)
-        frac = positive(self.smooth_speed_fraction, "smooth_speed_fraction")
-        if frac > 1.0:
-            raise InvalidParameterError("smooth_speed_fraction", frac, "a number in (0, 1]")
+            set_(self, "tau_forward", FeedforwardDesign(outer.tau_in, self.tau_forward).tau_forward)
+        set_(self, "feedforward", one_of(self.feedforward, "feedforward", FEEDFORWARD_KINDS))
+        frac = real(self.smooth_speed_fraction, "smooth_speed_fraction", low=0.0, low_open=True, high=1.0)
         set_(self, "smooth_speed_fraction", frac)
-        if not isinstance(self.sv_policy, SingularValuePolicy):
-            raise InvalidParameterError("sv_policy", self.sv_policy, "a SingularValuePolicy")
-        one_of(self.linearize_at, "linearize_at", LINEARIZE_AT)
-        one_of(self.branch_prior, "branch_prior", BRANCH_PRIORS)
-        set_(self, "estimate_from_image", _flag(self.estimate_from_image, "estimate_from_image"))
+        set_(self, "linearize_at", one_of(self.linearize_at, "linearize_at", LINEARIZE_AT))
+        set_(self, "estimate_from_image", flag(self.estimate_from_image, "estimate_from_image"))
+        set_(self, "branch_prior", one_of(self.branch_prior, "branch_prior", BRANCH_PRIORS))
 
     @property
     def tau_ff(self) -> float:
@@ -164,10 +151,10 @@ class YoulaController(Controller):
         settings: YoulaSettings | None = None,
         **gains: Any,
     ) -> None:
-        self.with_feedforward = _flag(with_feedforward, "with_feedforward")
-        self.adaptive = _flag(adaptive, "adaptive")
-        if settings is not None and not isinstance(settings, YoulaSettings):
-            raise InvalidParameterError("settings", type(settings).__name__, "a YoulaSettings or None")
+        self.with_feedforward = flag(with_feedforward, "with_feedforward")
+        self.adaptive = flag(adaptive, "adaptive")
+        if settings is not None:
+            instance(settings, "settings", YoulaSettings, "a YoulaSettings or None")
         unknown = sorted(set(gains) - set(YoulaSettings.field_names()))
         if unknown:
             raise InvalidParameterError(

@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._validation import as_array, as_pose
-from ..exceptions import InvalidArrayError, InvalidParameterError
+from .._validation import as_array, as_pose, flag, instance
+from ..exceptions import InvalidArrayError
 from ..model.camera import (
     StereoCamera,
     Visibility,
@@ -48,18 +48,20 @@ class EyeInHand:
             paper's scenarios need (ERRATA 13). Zero depth or disparity still raises.
 
     Raises:
+        InvalidParameterError: ``arm`` is not an Arm, ``camera`` not a StereoCamera, or
+            ``virtual_points`` not True or False.
         InvalidArrayError: markers_O is not a finite (n, 3) array with n >= 3.
         DegenerateMarkersError: coincident or collinear markers (they would not fix the pose, Sec. 3).
     """
 
     def __init__(self, arm: Arm, camera: StereoCamera, markers_O: object, virtual_points: bool = False):
-        if not isinstance(camera, StereoCamera):
-            raise InvalidParameterError("camera", type(camera).__name__, "a StereoCamera")
-        self.arm = arm
-        self.camera = camera
+        from ..model.arm import Arm
+
+        self.arm = instance(arm, "arm", Arm, "an Arm (e.g. Arm.irb4600())")
+        self.camera = instance(camera, "camera", StereoCamera, "a StereoCamera (Eq. 24: stereo features)")
         self.markers_O = check_marker_geometry(markers_O, "markers_O").copy()
         self.markers_O.flags.writeable = False
-        self.virtual_points = bool(virtual_points)
+        self.virtual_points = flag(virtual_points, "virtual_points")
         self._markers_mean = np.add.reduce(self.markers_O, axis=0) / self.markers_O.shape[0]  # [m]
         self._markers_centred = self.markers_O - self._markers_mean  # [m], Eq. (C11) for fixed markers
 

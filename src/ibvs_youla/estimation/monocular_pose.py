@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import as_array, one_of
+from .._validation import as_array, instance, one_of
 from ..exceptions import InvalidArrayError, InvalidParameterError, PoseEstimationError
 from ..model.camera import PinholeCamera, StereoCamera
 from .stereo_pose import check_marker_geometry, estimate_pose
@@ -43,12 +43,14 @@ def estimate_pose_monocular(
             an initial DLT/homography) or ``"ippe"`` (planar points only).
 
     Raises:
+        InvalidParameterError: ``camera`` is not a PinholeCamera, or an unknown ``method``.
         InvalidArrayError: mis-shaped or non-finite input, or fewer than four points.
         DegenerateMarkersError: coincident or collinear points.
         PoseEstimationError: OpenCV found no pose (e.g. ``"ippe"`` on non-planar points).
     """
     import cv2
 
+    instance(camera, "camera", PinholeCamera, "a PinholeCamera (a StereoCamera: estimate_pose, stereo P3P)")
     one_of(method, "method", PNP_METHODS)
     P_ref = check_marker_geometry(P_ref, "P_ref")
     n = P_ref.shape[0]

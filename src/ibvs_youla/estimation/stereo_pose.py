@@ -15,7 +15,7 @@ import numpy as np
 
 from .._geometry import make_pose
 from .._linalg import det3_sign, svd
-from .._validation import as_array
+from .._validation import as_array, flag, instance
 from ..exceptions import DegenerateMarkersError, InvalidArrayError
 from ..model.camera import StereoCamera, triangulate_points
 
@@ -200,10 +200,14 @@ def estimate_pose(
         allow_behind: Accept points behind the camera (negative disparity, ERRATA 13).
 
     Raises:
+        InvalidParameterError: ``camera`` is not a StereoCamera (a monocular camera's pose needs
+            four points and PnP: ``estimate_camera_pose``), or ``allow_behind`` not True or False.
         InvalidArrayError: non-finite or mis-shaped ``features`` or ``P_ref``, or their lengths differ.
         DegenerateMarkersError: ``P_ref`` is coincident or collinear.
         InvalidDisparityError: a disparity is ~0, or negative without ``allow_behind``.
     """
+    instance(camera, "camera", StereoCamera, "a StereoCamera (stereo P3P; a PinholeCamera needs PnP)")
+    allow_behind = flag(allow_behind, "allow_behind")
     P_ref = check_marker_geometry(P_ref, "P_ref")
     n = P_ref.shape[0]
     p = as_array(features, "features")

@@ -31,9 +31,9 @@ class ActuatorParameters:
     B_m: float = 0.06
 
     def __post_init__(self) -> None:
-        positive(self.r, "r")
+        object.__setattr__(self, "r", positive(self.r, "r"))
         for name in ("J_a", "J_g", "B_m"):
-            non_negative(getattr(self, name), name)
+            object.__setattr__(self, name, non_negative(getattr(self, name), name))
 
     def joint_terms(self, mapping: str = "paper") -> tuple[float, float]:
         """(armature [kg m^2], damping [N m s/rad]) seen at each joint.

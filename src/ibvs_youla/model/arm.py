@@ -27,6 +27,7 @@ shipped to worker processes.
 from __future__ import annotations
 
 import math
+import os
 import threading
 from dataclasses import astuple
 from pathlib import Path
@@ -36,8 +37,8 @@ import numpy as np
 import pinocchio as pin
 
 from .._geometry import pose_error_mm_deg
-from .._validation import as_array, as_pose, non_negative, positive
-from ..exceptions import InvalidArrayError, ModelLoadError, UnreachablePoseError
+from .._validation import as_array, as_pose, non_negative, positive, text
+from ..exceptions import InvalidArrayError, InvalidParameterError, ModelLoadError, UnreachablePoseError
 from ._resources import check_chain, frame_id, load_urdf_model, urdf_path
 from .actuators import ActuatorParameters
 from .ik import (
@@ -93,6 +94,11 @@ class Arm:
         T_E_C: Camera pose in the flange frame (4, 4) (ERRATA 2: Rz(pi) for the IRB 4600).
         ik_parameters: Lengths used by the closed-form IK, or None (numerical IK).
         urdf_path: File the model was loaded from (None if built from a model).
+
+    Raises:
+        InvalidParameterError: ``model`` is not a ``pinocchio.Model``, or a frame name or the
+            name is not a string.
+        ModelLoadError: the model is not six revolute joints in series, or lacks the frames.
     """
 
     def __init__(
@@ -106,6 +112,13 @@ class Arm:
         name: str | None = None,
         source: Any = None,
     ) -> None:
+        if not isinstance(model, pin.Model):
+            raise InvalidParameterError(
+                "model", type(model).__name__, "a pinocchio.Model (to load a URDF file, use Arm.from_urdf)"
+            )
+        camera_frame, name = text(camera_frame, "camera_frame"), None if name is None else text(name, "name")
+        if flange_frame is not None:
+            flange_frame = text(flange_frame, "flange_frame")
         check_chain(model, source)
         check_model(model, source)
         self.model = model.copy()
@@ -192,6 +205,8 @@ class Arm:
                 (:mod:`ibvs_youla.model.urdf_checks`: masses, inertias, axes, origins,
                 limits), naming the link or joint.
         """
+        if not isinstance(path, (str, os.PathLike)):
+            raise InvalidParameterError("path", path, "a URDF file path (str or pathlib.Path)")
         path = Path(path)
         model = load_urdf_model(path)
         return cls(

@@ -21,7 +21,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .._validation import as_array, non_negative, one_of, positive
+from .._validation import as_array, flag, non_negative, one_of, positive, real, text
 from ..exceptions import InvalidDisparityError, InvalidParameterError, PointBehindCameraError
 
 __all__ = ["PinholeCamera", "StereoCamera", "Visibility", "default_camera"]
@@ -47,8 +47,15 @@ def _zed_intrinsics(preset: str, mode: str, frame_rate: float | None) -> dict:
     width_px, height_px, rates = ZED_MODES[mode]
     if frame_rate is None:
         frame_rate = float(max(rates))
-    elif frame_rate not in rates:
-        raise InvalidParameterError("frame_rate", frame_rate, f"one of {rates} fps in mode {mode!r}")
+    else:
+        valid = f"one of {rates} fps in mode {mode!r}"
+        try:
+            rate = real(frame_rate, "frame_rate")
+        except InvalidParameterError:
+            raise InvalidParameterError("frame_rate", frame_rate, valid) from None
+        if rate not in rates:
+            raise InvalidParameterError("frame_rate", frame_rate, valid)
+        frame_rate = rate
     if preset == "paper":  # Table A3: the sensor extent is fixed, the mode sets the pixel count
         pitch = 5.23e-3 / width_px
         return dict(
@@ -159,26 +166,32 @@ class _Sensor:
     unbounded_view: bool = False  # no field-of-view limit: every point in front and in depth range is seen
 
     def __post_init__(self) -> None:
+        set_ = object.__setattr__
         for key in ("focal_length", "sensor_width", "sensor_height", "pixel_pitch", "frame_rate"):
-            object.__setattr__(self, key, positive(getattr(self, key), key))
-        if not np.isfinite(self.skew):
-            raise InvalidParameterError("skew", self.skew, "a finite number [px]")
-        object.__setattr__(self, "skew", float(self.skew))
+            set_(self, key, positive(getattr(self, key), key))
+        set_(self, "skew", real(self.skew, "skew", unit="px"))
+        pp_valid = "None or two finite numbers (u0, v0) [px]"
         pp = self.principal_point
         if pp is None:
             pp = (0.5 * self.sensor_width / self.pixel_pitch, 0.5 * self.sensor_height / self.pixel_pitch)
-        if np.shape(pp) != (2,) or not np.all(np.isfinite(pp)):
-            raise InvalidParameterError("principal_point", pp, "None or two finite numbers (u0, v0) [px]")
-        object.__setattr__(self, "principal_point", (float(pp[0]), float(pp[1])))
-        if np.shape(self.depth_range) != (2,):
-            raise InvalidParameterError("depth_range", self.depth_range, "(min, max) with 0 <= min < max [m]")
-        lo, hi = (non_negative(v, "depth_range") for v in self.depth_range)
+        elif isinstance(pp, str) or np.shape(pp) != (2,):
+            raise InvalidParameterError("principal_point", pp, pp_valid)
+        try:
+            set_(self, "principal_point", tuple(real(v, "principal_point") for v in pp))
+        except InvalidParameterError:
+            raise InvalidParameterError("principal_point", self.principal_point, pp_valid) from None
+        range_valid = "(min, max) with 0 <= min < max [m]"
+        if isinstance(self.depth_range, str) or np.shape(self.depth_range) != (2,):
+            raise InvalidParameterError("depth_range", self.depth_range, range_valid)
+        try:
+            lo, hi = (non_negative(v, "depth_range") for v in self.depth_range)
+        except InvalidParameterError:
+            raise InvalidParameterError("depth_range", self.depth_range, range_valid) from None
         if not lo < hi:
-            raise InvalidParameterError("depth_range", self.depth_range, "(min, max) with 0 <= min < max [m]")
-        object.__setattr__(self, "depth_range", (lo, hi))
-        if not isinstance(self.unbounded_view, (bool, np.bool_)):
-            raise InvalidParameterError("unbounded_view", self.unbounded_view, "True or False")
-        object.__setattr__(self, "unbounded_view", bool(self.unbounded_view))
+            raise InvalidParameterError("depth_range", self.depth_range, range_valid)
+        set_(self, "depth_range", (lo, hi))
+        set_(self, "name", text(self.name, "name"))
+        set_(self, "unbounded_view", flag(self.unbounded_view, "unbounded_view"))
 
     @property
     def resolution(self) -> tuple[int, int]:
@@ -217,6 +230,7 @@ class _Sensor:
                 and always |Z_C| < MIN_ABS_DEPTH.
         """
         P_C = _points(P_C, "P_C")
+        allow_behind = flag(allow_behind, "allow_behind")
         return project_points(self, P_C, allow_behind).reshape(P_C.shape[0], len(self._lens_x) + 1)
 
     def interaction_matrix(self, P_C: object, allow_behind: bool = False) -> np.ndarray:
@@ -228,7 +242,7 @@ class _Sensor:
         (Chaumette & Hutchinson 2006); for the stereo pair the lens offsets of ERRATA 12 stay in u.
         Depth rules as `project`.
         """
-        return points_interaction_matrix(self, _points(P_C, "P_C"), allow_behind)
+        return points_interaction_matrix(self, _points(P_C, "P_C"), flag(allow_behind, "allow_behind"))
 
     def visibility(self, P_C: object) -> Visibility:
         """Visibility of points (n, 3) [m]: in front, inside every lens's sensor extent, in depth_range."""
@@ -305,7 +319,7 @@ class StereoCamera(_Sensor):
             InvalidDisparityError: disparity u_r - u_l <= 0 (unless allow_behind), and always when it
                 is ~0 (|F b / d| > MAX_ABS_DEPTH).
         """
-        return triangulate_points(self, _points(features, "features"), allow_behind)
+        return triangulate_points(self, _points(features, "features"), flag(allow_behind, "allow_behind"))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -351,7 +365,7 @@ class PinholeCamera(_Sensor):
         p = _points(features, "features", 2)
         Z = as_array(Z, "Z")
         Z = np.full(p.shape[0], float(Z)) if Z.ndim == 0 else as_array(Z, "Z", (p.shape[0],))
-        _check_depth(Z, allow_behind)
+        _check_depth(Z, flag(allow_behind, "allow_behind"))
         return np.column_stack((p * (Z / self.focal_length)[:, None], Z))
 
 
@@ -451,4 +465,9 @@ def default_camera(**overrides: object) -> StereoCamera:
     The paper's ZED 2 optics (Table A3) in the VGA mode, whose 100 fps matches the default
     100 Hz camera rate (ERRATA 15); ``overrides`` go to :meth:`StereoCamera.zed2`.
     """
+    unknown = sorted(set(overrides) - {"preset", "mode", "frame_rate"})
+    if unknown:
+        raise InvalidParameterError(
+            ", ".join(unknown), overrides, "keywords of StereoCamera.zed2: preset, mode, frame_rate"
+        )
     return StereoCamera.zed2(**{"mode": "VGA", **overrides})  # type: ignore[arg-type]

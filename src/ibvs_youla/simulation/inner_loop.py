@@ -17,7 +17,9 @@ from typing import Any
 
 import numpy as np
 
+from .._memory import fits_in_memory
 from .._validation import as_array, positive
+from ..exceptions import InvalidParameterError
 from ..model.arm import Arm
 from .actuation import InnerLoopActuator
 from .plant import ArmPlant
@@ -61,7 +63,12 @@ def inner_step_response(
     model = arm if model_inertia_scale == 1.0 else arm.with_inertia_scale(model_inertia_scale)
     actuator = InnerLoopActuator(model, tau_in, dt)
     plant = ArmPlant(arm, q_encoder=q0)
-    n = round(duration / dt)
+    steps = duration / dt  # a float: checked before it is rounded (1e308 / 1e-3 is inf)
+    if steps < 1.0 - 1e-9:
+        raise InvalidParameterError("duration", duration, f"at least one sample, dt = {dt:g} s")
+    bytes_needed = 8.0 * (steps + 1.0) * (1 + 2 * arm.nq)  # t, q, tau
+    fits_in_memory(bytes_needed, "duration", duration, "a shorter duration or a larger dt")
+    n = round(steps)
     t = np.arange(n + 1) * dt
     q = np.empty((n + 1, arm.nq))
     tau = np.empty((n + 1, arm.nq))

@@ -83,7 +83,7 @@ class KinematicArmPlant:
         self.joint_offset = d.copy()
         self.joint_offset.setflags(write=False)
         self._Ad, self._Bd, self._C, self._CA = inner_closed_loop_matrices(tau_in, dt)
-        self.dt = float(dt)
+        self.dt = positive(dt, "dt", unit="s")
         q0 = as_array(q_encoder, "q_encoder", (n,))
         # At rest with output q0: x = q0 / C[0] * e1 (equilibrium of the controllable form)
         self._x = np.outer(np.array([1.0, 0.0, 0.0]) * tau_in**3, q0)

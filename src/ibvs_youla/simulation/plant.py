@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import as_array, positive
+from .._validation import as_array, flag, instance, positive, real
 from ..controllers.base import CommandType, JointReading
 from ..exceptions import InvalidParameterError, SimulationDivergedError
 from .integrators import rk4_arm_step
@@ -63,8 +63,9 @@ class DivergenceBounds:
     position_margin: float = 2.0 * math.pi
 
     def __post_init__(self) -> None:
-        positive(self.speed_factor, "speed_factor")
-        positive(self.position_margin, "position_margin", unit="rad")
+        set_ = object.__setattr__
+        set_(self, "speed_factor", positive(self.speed_factor, "speed_factor"))
+        set_(self, "position_margin", positive(self.position_margin, "position_margin", unit="rad"))
 
 
 class ArmPlant:
@@ -100,15 +101,21 @@ class ArmPlant:
         saturate_speed: bool = False,
         bounds: DivergenceBounds | None = None,
     ) -> None:
-        self.arm = arm
+        from ..model.arm import Arm
+
+        self.arm = instance(arm, "arm", Arm, "an Arm (its dynamics are simulated)")
         self._n = len(np.asarray(arm.q_min))
         n = self._n
         d = np.zeros(n) if joint_offset is None else as_array(joint_offset, "joint_offset", (n,))
         self.joint_offset = d.copy()
         self.joint_offset.setflags(write=False)
-        self.saturate_torque = bool(saturate_torque)
-        self.saturate_speed = bool(saturate_speed)
-        self.bounds = DivergenceBounds() if bounds is None else bounds
+        self.saturate_torque = flag(saturate_torque, "saturate_torque")
+        self.saturate_speed = flag(saturate_speed, "saturate_speed")
+        self.bounds = (
+            DivergenceBounds()
+            if bounds is None
+            else instance(bounds, "bounds", DivergenceBounds, "DivergenceBounds")
+        )
         self._q_min = np.asarray(arm.q_min, dtype=float)
         self._q_max = np.asarray(arm.q_max, dtype=float)
         self._dq_max = np.asarray(arm.dq_max, dtype=float)
@@ -128,7 +135,7 @@ class ArmPlant:
         """Set the state from an encoder reading (true angles = ``q_encoder + d``)."""
         q_encoder = as_array(q_encoder, "q_encoder", (self._n,))
         dq = np.zeros(self._n) if dq is None else as_array(dq, "dq", (self._n,))
-        self.t = float(as_array(t, "t", ()))
+        self.t = real(t, "t", unit="s")
         self._set_state(np.concatenate([q_encoder + self.joint_offset, dq]))
         self.last_tau = np.zeros(self._n)
 

@@ -8,6 +8,7 @@ early (diverged, markers lost, interrupted) keeps every finished sample.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -75,6 +76,21 @@ class ResultRecorder:
 
     def __len__(self) -> int:
         return self._n
+
+    @staticmethod
+    def estimate_bytes(
+        n_rows: int, n_frames: int, n_features: int, n_points: int, signals: Mapping[str, tuple[int, ...]]
+    ) -> float:
+        """Peak memory [bytes] of recording ``n_rows`` tick samples and ``n_frames`` camera frames.
+
+        Tick buffers (time, 4x4 pose, features, visibility, every signal) are counted twice
+        (:meth:`result` copies them); each frame costs its features and visibility as arrays
+        with their object headers and list slots (about 300 bytes besides the data) and once
+        more when :meth:`result` stacks them.
+        """
+        row = 8.0 * (1 + 16 + n_features) + n_points + sum(8.0 * math.prod(s) for s in signals.values())
+        frame = 2.0 * (8.0 * n_features + n_points) + 300.0
+        return 2.0 * float(n_rows) * row + float(n_frames) * frame
 
     def record(
         self, t: float, camera_pose: np.ndarray, features: np.ndarray, visible: Any, values: Sequence[Any]

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import as_pose
+from .._validation import as_pose, flag
 from ..controllers.base import CameraFrame
 from ..estimation.stereo_pose import check_marker_geometry
 from ..exceptions import InvalidParameterError
@@ -56,7 +56,7 @@ class MarkerSensor:
         self.camera = camera
         self.markers_O = markers.copy()
         self.markers_O.setflags(write=False)
-        self.virtual_points = bool(virtual_points)
+        self.virtual_points = flag(virtual_points, "virtual_points")
 
     @property
     def n_points(self) -> int:

@@ -13,9 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
-from .._validation import positive
+from .._validation import flag, integer, positive
 from ..controllers.youla import BRANCH_PRIORS, FEEDFORWARD_KINDS, LINEARIZE_AT, YoulaSettings
 from ..exceptions import InvalidParameterError
 
@@ -73,16 +71,8 @@ class SimulationSettings(YoulaSettings):
                     f"{self.joint_rate_hz / 10:g} Hz)",
                 )
         set_(self, "model_inertia_scale", positive(self.model_inertia_scale, "model_inertia_scale"))
-        if not isinstance(self.saturate, (bool, np.bool_)):
-            raise InvalidParameterError("saturate", self.saturate, "True or False")
-        set_(self, "saturate", bool(self.saturate))
-        record_every = self.record_every
-        if (
-            isinstance(record_every, bool)
-            or not isinstance(record_every, (int, np.integer))
-            or record_every < 1
-        ):
-            raise InvalidParameterError("record_every", record_every, "an integer >= 1")
+        set_(self, "saturate", flag(self.saturate, "saturate"))
+        set_(self, "record_every", integer(self.record_every, "record_every", low=1))
 
     def controller_settings(self) -> YoulaSettings:
         """The paper controller's gains and options held here, as :class:`YoulaSettings`."""

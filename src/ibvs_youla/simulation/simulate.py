@@ -29,7 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import one_of, positive
+from .._memory import fits_in_memory
+from .._validation import flag, one_of, positive
 from ..controllers import Controller, ServoTask, YoulaSettings, make, names, uses_youla_settings
 from ..controllers.base import CommandType
 from ..estimation.stereo_pose import check_marker_geometry
@@ -172,11 +173,14 @@ def simulate(
         ``metadata["spec"]`` holds the full run specification.
 
     Raises:
-        InvalidParameterError: unknown controller, plant or sensor, non-positive duration, a
-            scenario, settings, arm, camera or beliefs of the wrong type, a sensor function that
-            returns no sensor, a free-camera
-            scenario on an arm plant, or a controller that cannot use the task (e.g. the
-            paper's controller with a monocular camera).
+        InvalidParameterError: unknown controller, plant or sensor, ``adaptive`` or ``progress``
+            not True or False, a duration that is not a real number > 0, is shorter than one
+            tick or whose recording would not fit in memory (refused before allocating; the
+            message gives the size and what reduces it), a scenario, settings, arm, camera or
+            beliefs of the wrong type, a sensor function that returns no sensor, a joint rate
+            below 1/tau_in on an arm plant, a free-camera scenario on an arm plant, or a
+            controller that cannot use the task (e.g. the paper's controller with a monocular
+            camera).
         IncompatibleCommandError: the controller's command cannot drive the plant.
         JointLimitError: the scenario's configurations are outside the arm's limits.
         SimulationDivergedError: a state left its bounds; ``error.partial`` holds the
@@ -194,20 +198,18 @@ def simulate(
         if not (isinstance(value, kind) or (value is None and name != "scenario")):
             valid = " or ".join(k.__name__ for k in (kind if isinstance(kind, tuple) else (kind,)))
             raise InvalidParameterError(name, type(value).__name__, f"a {valid}")
-    for flag, value in (("adaptive", adaptive), ("progress", progress)):
-        if not isinstance(value, (bool, np.bool_)):
-            raise InvalidParameterError(flag, value, "True or False")
+    adaptive, progress = flag(adaptive, "adaptive"), flag(progress, "progress")
     settings = SimulationSettings() if settings is None else settings
     beliefs = Beliefs() if beliefs is None else beliefs
-    ctrl = _controller(controller, bool(adaptive), settings)
+    ctrl = _controller(controller, adaptive, settings)
     camera = default_camera() if camera is None else camera
     if plant == "free-camera":
         world = _free_camera_world(scenario, arm, settings)
     else:
         arm = Arm.irb4600() if arm is None else arm
         world = _arm_world(scenario, plant, arm, settings)
-    n_ticks = round(duration / world.dt)
-    if n_ticks < 1:
+    ticks = duration / world.dt  # a float: 1e308 s is inf ticks, refused below before any rounding
+    if ticks < 1.0 - 1e-9:  # no silent zero-step (or rounded-up) run
         raise InvalidParameterError(
             "duration",
             duration,
@@ -268,6 +270,16 @@ def simulate(
             f"names other than the plant's and the commands' "
             f"({', '.join((*world.plant.signal_names, *command_signals))})",
         )
+    n_rows, n_frames = ticks / record_every + 2, ticks / world.ticks_per_frame + 1  # floats until checked
+    fits_in_memory(
+        ResultRecorder.estimate_bytes(n_rows, n_frames, task.feature_target.size, truth.n_points, shapes),
+        "duration",
+        duration,
+        f"a shorter duration or a larger settings.record_every (now {record_every}: {n_rows:.3g} samples "
+        f"of {ticks:.3g} ticks are kept, and all {n_frames:.3g} camera frames)",
+    )
+    n_ticks = round(ticks)
+    n_rows = n_ticks // record_every + 2
     metadata = _metadata(scenario, ctrl, plant, world, camera, settings, beliefs, n_ticks)
     if measuring is not truth:  # recorded only when a sensor was chosen: undisturbed runs keep their metadata
         describe = getattr(measuring, "spec", None)
@@ -275,7 +287,7 @@ def simulate(
     recorder = ResultRecorder(
         task.feature_target,
         world.T_O_C_target,
-        n_ticks // record_every + 2,
+        n_rows,
         n_points=truth.n_points,
         signals=shapes,
         metadata=metadata,
@@ -392,6 +404,13 @@ def _arm_world(scenario: Scenario, plant: str, arm: Arm, settings: SimulationSet
         )
     scenario.validate_for(arm)
     dt = settings.dt
+    if dt > settings.tau_in:
+        raise InvalidParameterError(
+            "settings.joint_rate_hz",
+            settings.joint_rate_hz,
+            f">= 1/tau_in = {1.0 / settings.tau_in:g} Hz on an arm plant: the inner loop (Eq. (33)-(46)) "
+            "runs at the joint rate and needs a period <= tau_in",
+        )
     if plant == "dynamic":
         world_plant: Any = ArmPlant(
             arm,

@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from .._memory import fits_in_memory
 from .._validation import as_array, positive
 from ..exceptions import InvalidArrayError
 
@@ -45,7 +46,9 @@ def playback_frames(t: object, speed: float = 1.0, fps: float = 30.0) -> np.ndar
     if np.any(np.diff(t) < 0.0):
         raise InvalidArrayError("t", "decreasing sample times", "non-decreasing sample times [s]")
     step = speed / fps  # simulated seconds per frame
-    n_frames = math.floor((t[-1] - t[0]) / step + _TIME_TOL) + 1
+    frames = (t[-1] - t[0]) / step + _TIME_TOL
+    fits_in_memory(16.0 * frames, "speed", speed, "a higher speed or a lower fps")  # times and indices
+    n_frames = math.floor(frames) + 1
     frame_times = t[0] + step * np.arange(n_frames)
     idx = np.searchsorted(t, frame_times + _TIME_TOL, side="right") - 1
     if idx[-1] != t.size - 1:

@@ -394,6 +394,8 @@ def _collect(
             writer.flush()
             continue
         for future in finished:
+            if future.status in ("lost", "pending"):  # its result died with a worker: recomputed
+                continue
             spec = in_flight.pop(future)
             if future.status == "finished":
                 value = future.result()

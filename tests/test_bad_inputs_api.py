@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import ibvs_youla as iy
+from bad_input_rows import case, check
 from ibvs_youla import controllers, scenarios
 from ibvs_youla.analysis import suites
 from ibvs_youla.analysis.compare import compare
@@ -64,18 +65,6 @@ LENS = {"focal_length": 2.8e-3, "sensor_width": 5.2e-3, "sensor_height": 2.9e-3,
 STEREO = {**LENS, "baseline": 0.12}
 FEATURES = np.full(9, 1e-4)
 ROTATION = "rotation about the optical axis"  # a test of the Gans 2003 suite
-
-
-def case(call, error, name, id_):
-    """One row: ``call()`` must raise ``error`` with ``name`` in its message."""
-    return pytest.param(call, error, name, id=id_)
-
-
-def check(call, error, name):
-    with pytest.raises(error) as info:
-        call()
-    assert name in str(info.value), f"{name!r} not named in: {info.value}"
-    return info.value
 
 
 def _sim(**kwargs):

@@ -18,6 +18,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from bad_input_rows import case, check
 from ibvs_youla.analysis.convergence import Tolerances
 from ibvs_youla.control.feedforward import FeedforwardDesign
 from ibvs_youla.control.inner import InnerLoopDesign
@@ -33,18 +34,6 @@ from ibvs_youla.simulation.settings import SimulationSettings
 
 P = InvalidParameterError
 A = InvalidArrayError
-
-
-def case(call, error, name, id_):
-    """One row: ``call()`` must raise ``error`` with ``name`` in its message."""
-    return pytest.param(call, error, name, id=id_)
-
-
-def check(call, error, name):
-    with pytest.raises(error) as info:
-        call()
-    assert name in str(info.value), f"{name!r} not named in: {info.value}"
-    return info.value
 
 
 # --------------------------------------------------------------------------- SimulationSettings

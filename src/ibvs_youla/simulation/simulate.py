@@ -35,6 +35,7 @@ from ..model.arm import Arm
 from ..model.camera import PinholeCamera, StereoCamera, default_camera
 from ..scenarios import Scenario
 from .actuation import actuation_chain
+from .disturbances import Disturbances
 from .free_camera import FreeCameraPlant
 from .kinematic_arm import KinematicArmPlant
 from .loop import ServoLoop
@@ -127,6 +128,7 @@ def simulate(
     settings: SimulationSettings | None = None,
     arm: Arm | None = None,
     beliefs: Beliefs | None = None,
+    disturbances: Disturbances | None = None,
     progress: bool = False,
 ) -> SimulationResult:
     """Simulate one scenario in closed loop and return every signal as data.
@@ -150,6 +152,9 @@ def simulate(
             free-flying camera the tick is the camera period.
         arm: The true arm; default ``Arm.irb4600()`` (not built for a free-camera scenario).
         beliefs: Where the controller's models differ from the truth (:class:`Beliefs`).
+        disturbances: Pixel noise, dropouts, calibration errors (on top of ``beliefs``), model
+            mismatch, latency, actuator limits (:class:`~.disturbances.Disturbances`); each
+            wraps a role built here, and ``None`` or all-off wraps nothing.
         progress: Show a progress bar (tqdm) on stderr.
 
     Returns:
@@ -161,8 +166,9 @@ def simulate(
 
     Raises:
         InvalidParameterError: unknown controller or plant, non-positive duration, a
-            scenario, settings, arm, camera or beliefs of the wrong type, a free-camera
-            scenario on an arm plant, or a controller that cannot use the task (e.g. the
+            scenario, settings, arm, camera, beliefs or disturbances of the wrong type, a
+            free-camera scenario on an arm plant, a disturbance with nothing to act on (e.g.
+            friction on the kinematic arm), or a controller that cannot use the task (e.g. the
             paper's controller with a monocular camera).
         IncompatibleCommandError: the controller's command cannot drive the plant.
         JointLimitError: the scenario's configurations are outside the arm's limits.
@@ -177,6 +183,7 @@ def simulate(
         ("arm", arm, Arm),
         ("camera", camera, (StereoCamera, PinholeCamera)),
         ("beliefs", beliefs, Beliefs),
+        ("disturbances", disturbances, Disturbances),
     ):
         if not (isinstance(value, kind) or (value is None and name != "scenario")):
             valid = " or ".join(k.__name__ for k in (kind if isinstance(kind, tuple) else (kind,)))
@@ -186,13 +193,16 @@ def simulate(
             raise InvalidParameterError(flag, value, "True or False")
     settings = SimulationSettings() if settings is None else settings
     beliefs = Beliefs() if beliefs is None else beliefs
-    ctrl = _controller(controller, bool(adaptive), settings)
+    disturbances = Disturbances() if disturbances is None else disturbances
+    ctrl = disturbances.wrap_controller(_controller(controller, bool(adaptive), settings))
     camera = default_camera() if camera is None else camera
+    disturbances.check_applies(plant, camera)
+    noise_rng, dropout_rng, marker_rng = disturbances.generators()
     if plant == "free-camera":
         world = _free_camera_world(scenario, arm, settings)
     else:
         arm = Arm.irb4600() if arm is None else arm
-        world = _arm_world(scenario, plant, arm, settings)
+        world = _arm_world(scenario, plant, arm, settings, disturbances)
     n_ticks = round(duration / world.dt)
     if n_ticks < 1:
         raise InvalidParameterError(
@@ -201,7 +211,10 @@ def simulate(
             f"at least one tick of the {plant!r} plant, {world.dt:g} s (settings' rates)",
         )
     sensor = MarkerSensor(camera, scenario.markers_O, virtual_points=scenario.virtual_points)
+    sensor = disturbances.wrap_sensor(sensor, noise_rng, dropout_rng)
     beliefs.check_against(scenario, camera, world.arm is not None)
+    if disturbances.calibration_changed:
+        beliefs = _disturbed_beliefs(beliefs, disturbances, scenario, camera, world.arm, marker_rng)
     model_arm = None
     if world.arm is not None:
         model_arm = world.arm if beliefs.arm is None else beliefs.arm
@@ -255,6 +268,8 @@ def simulate(
             f"({', '.join((*world.plant.signal_names, *command_signals))})",
         )
     metadata = _metadata(scenario, ctrl, plant, world, camera, settings, beliefs, n_ticks)
+    if disturbances.active:
+        metadata["disturbances"] = metadata["spec"]["disturbances"] = disturbances.to_dict()
     recorder = ResultRecorder(
         task.feature_target,
         world.T_O_C_target,
@@ -343,7 +358,31 @@ class _World:
     T_O_C_target: np.ndarray
 
 
-def _arm_world(scenario: Scenario, plant: str, arm: Arm, settings: SimulationSettings) -> _World:
+def _disturbed_beliefs(
+    beliefs: Beliefs,
+    disturbances: Disturbances,
+    scenario: Scenario,
+    camera: Any,
+    arm: Arm | None,
+    rng: np.random.Generator,
+) -> Beliefs:
+    """The beliefs with the calibration errors of ``disturbances`` applied on top."""
+    new_arm, new_camera, new_markers = disturbances.believed_models(
+        beliefs.arm if beliefs.arm is not None else arm,
+        beliefs.camera if beliefs.camera is not None else camera,
+        beliefs.markers_O if beliefs.markers_O is not None else scenario.markers_O,
+        rng,
+    )
+    return Beliefs(
+        arm=beliefs.arm if new_arm is None else new_arm,
+        camera=beliefs.camera if new_camera is None else new_camera,
+        markers_O=beliefs.markers_O if new_markers is None else new_markers,
+    )
+
+
+def _arm_world(
+    scenario: Scenario, plant: str, arm: Arm, settings: SimulationSettings, disturbances: Disturbances
+) -> _World:
     if not scenario.has_joints:
         raise InvalidParameterError(
             "plant", plant, f"'free-camera' for the free-camera scenario {scenario.name!r} (it has no joints)"
@@ -351,12 +390,13 @@ def _arm_world(scenario: Scenario, plant: str, arm: Arm, settings: SimulationSet
     scenario.validate_for(arm)
     dt = settings.dt
     if plant == "dynamic":
+        saturate = settings.saturate or disturbances.limit_scale is not None
         world_plant: Any = ArmPlant(
-            arm,
+            disturbances.plant_arm(arm),  # the true arm, if it differs from the controller's model
             scenario.joint_offset,
             q_encoder=scenario.q_start,
-            saturate_torque=settings.saturate,
-            saturate_speed=settings.saturate,
+            saturate_torque=saturate,
+            saturate_speed=saturate,
         )
     else:
         world_plant = KinematicArmPlant(

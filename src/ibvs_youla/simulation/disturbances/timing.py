@@ -9,7 +9,7 @@ a delayed system (the arm starts at rest).
 
 A delay of d frames on the free camera's classical IBVS, v_k = -lambda L^+ e_{k-d}, gives the
 loop e_{k+1} = e_k - lambda T e_{k-d} (T the frame period), stable for lambda T < 2 sin(pi /
-(2 (2 d + 1))) (2 for d = 0, 1 for d = 1, 0.618 for d = 2); ``tests/test_disturbances_timing.py``
+(2 (2 d + 1))) (2 for d = 0, 1 for d = 1, 0.618 for d = 2); ``tests/test_disturbance_effects.py``
 checks the simulated boundary against the gain margin python-control computes.
 
 The camera and joint-loop *rates* are not disturbances: they are settings

@@ -5,6 +5,12 @@ to JSON; :attr:`ExperimentSpec.key` is the first 20 hex digits of the SHA-256 of
 JSON (sorted keys, no spaces, floats written by ``repr``), so the same spec has the same key
 on any machine and a campaign can skip the runs it already stored. :meth:`ExperimentSpec.build`
 turns it back into the arguments of :func:`ibvs_youla.simulate`.
+
+A spec's ``disturbances`` (the non-default fields of
+:class:`~ibvs_youla.simulation.disturbances.Disturbances`) enter its JSON, hence its key, only
+when there are some: the specs, keys and stored rows of undisturbed campaigns are those of the
+versions before disturbances existed. Their random draws are seeded per case from the
+campaign's seed (:func:`disturbance_seed`), so every method of a case sees the same draws.
 """
 
 from __future__ import annotations
@@ -19,7 +25,7 @@ import numpy as np
 
 from ..exceptions import InvalidParameterError
 
-__all__ = ["CAMERA_KINDS", "ExperimentSpec", "camera_from_spec", "specs_for"]
+__all__ = ["CAMERA_KINDS", "ExperimentSpec", "camera_from_spec", "disturbance_seed", "specs_for"]
 
 CAMERA_KINDS = ("stereo", "mono", "normalized")
 
@@ -55,6 +61,15 @@ def camera_from_spec(camera: Mapping[str, Any]) -> Any:
     raise InvalidParameterError("camera.kind", kind, " or ".join(repr(k) for k in CAMERA_KINDS))
 
 
+def disturbance_seed(seed: int, case: int) -> int:
+    """The seed of the disturbance draws of case ``case`` of a campaign seeded ``seed``.
+
+    ``SeedSequence(seed, spawn_key=(case, 1))``: a stream of its own, apart from the case's
+    generator (``SeedSequence(seed).spawn(...)[case]``, spawn key ``(case,)``).
+    """
+    return int(np.random.SeedSequence(seed, spawn_key=(case, 1)).generate_state(1)[0])
+
+
 @dataclass(frozen=True, eq=True)
 class ExperimentSpec:
     """One (case, method) run of a campaign, as plain data (module docstring).
@@ -73,6 +88,9 @@ class ExperimentSpec:
         duration: Simulated time [s].
         difficulty: What makes the case hard, reported with its row, e.g. ``{"rotation_deg":
             ..., "translation_m": ...}`` between the start and target camera poses.
+        disturbances: Fields of ``Disturbances`` that differ from the defaults, without a
+            seed (the case's is :func:`disturbance_seed`); empty: none, and no entry in the
+            JSON or the key.
     """
 
     family: str
@@ -86,6 +104,7 @@ class ExperimentSpec:
     controller_params: Mapping[str, Any] = field(default_factory=dict)
     settings: Mapping[str, Any] = field(default_factory=dict)
     difficulty: Mapping[str, Any] = field(default_factory=dict)
+    disturbances: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for name in ("case", "seed"):
@@ -93,16 +112,25 @@ class ExperimentSpec:
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
                 raise InvalidParameterError(name, value, "an integer >= 0")
             object.__setattr__(self, name, int(value))
-        for name in ("scenario", "controller_params", "camera", "settings", "difficulty"):
+        for name in ("scenario", "controller_params", "camera", "settings", "difficulty", "disturbances"):
             object.__setattr__(self, name, _plain(getattr(self, name)))
+        if "seed" in self.disturbances:
+            raise InvalidParameterError(
+                "disturbances.seed",
+                self.disturbances["seed"],
+                "no seed: a campaign seeds each case's disturbances from its own seed",
+            )
         object.__setattr__(self, "duration", float(self.duration))
 
     def __hash__(self) -> int:
         return hash(self.key)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain data (the JSON of :meth:`to_json`)."""
-        return _plain(asdict(self))
+        """Plain data (the JSON of :meth:`to_json`); ``disturbances`` only when there are some."""
+        data = _plain(asdict(self))
+        if not data["disturbances"]:
+            del data["disturbances"]
+        return data
 
     def to_json(self) -> str:
         """Canonical JSON: sorted keys, no spaces (the input of :attr:`key`)."""
@@ -121,7 +149,7 @@ class ExperimentSpec:
     def build(self) -> dict[str, Any]:
         """Keyword arguments of :func:`ibvs_youla.simulate`: scenario, controller, plant, camera, ...
 
-        (and settings, duration), rebuilt from the plain data.
+        (and settings, duration, and disturbances when there are some), rebuilt from the plain data.
         """
         from ..controllers import make
         from ..scenarios import Scenario
@@ -141,7 +169,7 @@ class ExperimentSpec:
             from ..control.singular_values import SingularValuePolicy
 
             settings["sv_policy"] = SingularValuePolicy(**settings["sv_policy"])
-        return {
+        kwargs = {
             "scenario": scenario,
             "controller": make(self.controller, **self.controller_params),
             "plant": self.plant,
@@ -149,6 +177,12 @@ class ExperimentSpec:
             "settings": SimulationSettings(**settings),
             "duration": self.duration,
         }
+        if self.disturbances:
+            from ..simulation.disturbances import Disturbances
+
+            seed = disturbance_seed(self.seed, self.case)
+            kwargs["disturbances"] = Disturbances.from_dict({**self.disturbances, "seed": seed})
+        return kwargs
 
 
 def specs_for(
@@ -161,6 +195,7 @@ def specs_for(
     duration: float,
     settings: Mapping[str, Any] | None = None,
     controller_params: Mapping[str, Mapping[str, Any]] | None = None,
+    disturbances: Mapping[str, Any] | None = None,
 ) -> list[ExperimentSpec]:
     """One spec per (case, controller), cases outer: every method runs on the same cases."""
     params = controller_params or {}
@@ -177,6 +212,7 @@ def specs_for(
             controller_params=params.get(name, {}),
             settings=settings or {},
             difficulty=case.difficulty,
+            disturbances=disturbances or {},
         )
         for case in cases
         for name in controllers

@@ -41,6 +41,7 @@ _LAZY: dict[str, str] = {
     "Scenario": ".scenarios",
     "simulate": ".simulation.simulate",
     "Beliefs": ".simulation.simulate",
+    "Disturbances": ".simulation.disturbances.definition",
     "SimulationSettings": ".simulation.settings",
     "SimulationResult": ".simulation.results",
 }
@@ -49,6 +50,7 @@ _SUBMODULES = {"scenarios", "model", "estimation", "control", "controllers", "si
 __all__ = [
     "Arm",
     "Beliefs",
+    "Disturbances",
     "EyeInHand",
     "FeedforwardDesign",
     "IbvsYoulaError",
@@ -104,6 +106,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .model.arm import Arm
     from .model.camera import PinholeCamera, StereoCamera, Visibility
     from .scenarios import Scenario
+    from .simulation.disturbances.definition import Disturbances
     from .simulation.results import SimulationResult
     from .simulation.settings import SimulationSettings
     from .simulation.simulate import Beliefs, simulate

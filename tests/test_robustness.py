@@ -183,3 +183,17 @@ def test_a_study_runs_on_one_local_cluster(tmp_path):
     summaries = run_study(study, tmp_path / "latency", workers=1, progress=False)
     assert [(v, s.ran, s.workers) for v, s in summaries] == [(0.0, 1, 1), (3.0, 1, 1)]
     assert len(read_study_rows(tmp_path / "latency")) == 2
+
+
+def test_a_copied_undisturbed_campaign_is_adopted_not_rerun(study_dir, tmp_path):
+    """The undisturbed campaign is the same in every study of a family: copied, it is resumed."""
+    import shutil
+
+    out = tmp_path / "latency"
+    shutil.copytree(study_dir / "noise=0", out / "latency=0")
+    campaign = {"family": "free-planar", "cases": 4, "controllers": ("ibvs-current", "pbvs"), "seed": 2}
+    study = RobustnessStudy("latency", (0, 5), {**campaign, "duration": 20.0})
+    (_, s0), (_, s5) = run_study(study, out, workers=0, progress=False)
+    assert (s0.stored_before, s0.ran) == (8, 0) and (s5.stored_before, s5.ran) == (0, 8)
+    rows = read_study_rows(out)
+    assert len(rows) == 16 and rows[rows["axis_value"] == 0.0]["outcome"].eq("reached").all()

@@ -76,6 +76,10 @@ def test_all_off_is_an_empty_dict_and_round_trips():
         "seed": 3,
     }
     assert Disturbances.from_dict(d.to_dict()) == d
+    # one friction value per joint, all equal, is that value: six zeros are "off"
+    assert Disturbances(coulomb_friction=(0.0,) * 6, viscous_friction=[2.0] * 6).to_dict() == {
+        "viscous_friction": 2.0
+    }
 
 
 @pytest.mark.parametrize(

@@ -197,3 +197,12 @@ def test_a_copied_undisturbed_campaign_is_adopted_not_rerun(study_dir, tmp_path)
     assert (s0.stored_before, s0.ran) == (8, 0) and (s5.stored_before, s5.ran) == (0, 8)
     rows = read_study_rows(out)
     assert len(rows) == 16 and rows[rows["axis_value"] == 0.0]["outcome"].eq("reached").all()
+
+
+@pytest.mark.parametrize("axis", sorted(AXES))
+def test_the_reference_value_of_every_axis_is_the_undisturbed_campaign(axis):
+    """Level 0 (saturation: inf) disturbs nothing: the same campaign, keys and rows in every study."""
+    reference = AXES[axis].defaults[0]
+    campaign = {"family": "arm-physical", "cases": 2, "controllers": ("fb",)}
+    ((_, definition),) = RobustnessStudy(axis, (reference,), campaign).campaigns()
+    assert "disturbances" not in definition.to_dict()

@@ -65,12 +65,14 @@ def _vector(value: Any, name: str, n: int) -> tuple[float, ...]:
 
 
 def _friction(value: Any, name: str, unit: str) -> float | tuple[float, ...]:
-    """A friction coefficient: one number >= 0 for every joint, or one per joint."""
+    """A friction coefficient: one number >= 0 for every joint, or one per joint (equal ones: one)."""
     if np.ndim(value) == 0:
         return non_negative(value, name, unit=unit)
     arr = np.asarray(value, dtype=float)
     if arr.shape != (_N_JOINTS,) or not np.all(np.isfinite(arr)) or np.any(arr < 0.0):
         raise InvalidParameterError(name, value, f"a number >= 0 or {_N_JOINTS} numbers >= 0 [{unit}]")
+    if np.all(arr == arr[0]):  # one value for every joint, written once: six zeros are "off"
+        return float(arr[0])
     return tuple(float(v) for v in arr)
 
 

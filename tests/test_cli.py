@@ -18,7 +18,17 @@ from ibvs_youla.exceptions import SimulationDivergedError
 from ibvs_youla.simulation.results import SimulationResult
 
 ROOT = Path(__file__).resolve().parents[1]
-COMMANDS = ("reproduce", "simulate", "compare", "campaign", "campaign-report", "design", "view", "bench")
+COMMANDS = (
+    "reproduce",
+    "simulate",
+    "compare",
+    "campaign",
+    "campaign-report",
+    "robustness",
+    "design",
+    "view",
+    "bench",
+)
 
 
 def run(capsys, *argv):

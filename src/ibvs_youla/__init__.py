@@ -42,6 +42,7 @@ _LAZY: dict[str, str] = {
     "Scenario": ".scenarios",
     "simulate": ".simulation.simulate",
     "Beliefs": ".simulation.simulate",
+    "Disturbances": ".simulation.disturbances.definition",
     "SimulationSettings": ".simulation.settings",
     "SimulationResult": ".simulation.results",
     "ImageSensor": ".simulation.image_sensor",
@@ -55,6 +56,7 @@ __all__ = [
     "Beliefs",
     "DetectorSettings",
     "DiscMarkers",
+    "Disturbances",
     "EyeInHand",
     "FeedforwardDesign",
     "IbvsYoulaError",
@@ -113,6 +115,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .model.arm import Arm
     from .model.camera import PinholeCamera, StereoCamera, Visibility
     from .scenarios import Scenario
+    from .simulation.disturbances.definition import Disturbances
     from .simulation.image_sensor import ImageSensor
     from .simulation.rendering import DiscMarkers, ImagingSettings
     from .simulation.results import SimulationResult

@@ -106,7 +106,10 @@ class Outcome:
 
 
 def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> Outcome:
-    """Classify a run as reached / stalled / converging (see the module docstring)."""
+    """Classify a run as reached / stalled / converging (see the module docstring).
+
+    Samples with a missing feature (NaN: a marker dropped from the frame) are left out.
+    """
     from ..simulation.results import SimulationResult
 
     instance(result, "result", SimulationResult, "a SimulationResult")
@@ -114,13 +117,17 @@ def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> 
     e = result.feature_error
     n_points = result.n_points
     status = result.metadata.get("status", "complete")
-    if len(result.t) == 0:  # stopped before the first sample (e.g. markers lost at t = 0)
+    complete = np.isfinite(e).all(axis=1)  # samples whose every feature was measured (dropouts: NaN)
+    if not complete.any():  # stopped before the first sample (e.g. markers lost at t = 0)
         nan = float("nan")
         return Outcome(status, nan, (nan,) * n_points, nan, nan, nan, 0.0, float("inf"), tol.window)
-    final = np.abs(e[-1])
     position_mm, rotation_deg = result.final_pose_error()
-    norms = np.linalg.norm(e, axis=1)
     t = result.t
+    pose_within = _pose_within(result, tol)
+    if not complete.all():
+        e, t, pose_within = e[complete], t[complete], pose_within[complete]
+    final = np.abs(e[-1])
+    norms = np.linalg.norm(e, axis=1)
     i0 = int(np.searchsorted(t, t[-1] - tol.window * (t[-1] - t[0])))
     i0 = min(i0, len(t) - 1)
     ref = norms[i0]
@@ -133,7 +140,7 @@ def classify(result: SimulationResult, tolerances: Tolerances | None = None) -> 
         kind = "stalled"
     else:
         kind = "converging"
-    inside = (np.abs(e).max(axis=1) <= tol.image_m) & _pose_within(result, tol)
+    inside = (np.abs(e).max(axis=1) <= tol.image_m) & pose_within
     outside = np.flatnonzero(~inside)
     if outside.size == 0:
         reached_at = float(t[0])

@@ -8,6 +8,11 @@ no joint configurations, so it runs on the free camera only; an arm family's cas
 by their joint limits and singularities, so they run on an arm plant only (``kinematic`` for
 an ideal inner loop); the paper's controllers (``fb``, ``ff+fb``) command joint positions,
 so they need an arm plant.
+
+``disturbances`` (fields of :class:`~ibvs_youla.simulation.disturbances.Disturbances`, without
+a seed: each case draws its own from the campaign's) apply to every run; they are stored in
+``campaign.json`` and in each spec only when there are some, so the folders of undisturbed
+campaigns read and resume as before.
 """
 
 from __future__ import annotations
@@ -60,11 +65,14 @@ class CampaignDefinition:
         settings: Keyword arguments of ``SimulationSettings``.
         difficulty: The generator's difficulty knob (> 0; 1 is the stated range).
         controller_params: Method label -> further keyword parameters of ``controllers.make``.
+        disturbances: Fields of ``Disturbances`` for every run (no seed), normalized to those
+            that differ from the defaults (``{}``: none).
 
     Raises:
         InvalidParameterError: any of the above out of range, an unknown controller or
             parameter, a family on a plant it cannot run on (module docstring), settings that
-            ``SimulationSettings`` rejects.
+            ``SimulationSettings`` rejects, disturbances that ``Disturbances`` rejects, carry a
+            seed, or have nothing to act on (e.g. friction on the kinematic arm).
     """
 
     family: str
@@ -77,6 +85,7 @@ class CampaignDefinition:
     settings: Mapping[str, Any] | None = None
     difficulty: float = 1.0
     controller_params: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    disturbances: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         from .. import controllers as registry
@@ -146,6 +155,7 @@ class CampaignDefinition:
                 "'dynamic' or 'kinematic' for the arm" if arm_family else "'free-camera' for the free-flying"
             )
             raise InvalidParameterError("plant", self.plant, f"{valid} family {self.family!r}")
+        put("disturbances", self._checked_disturbances())
         for label, (name, own) in zip(names, methods, strict=True):
             kind = registry.make(
                 name, **{**own, **params.get(label, {})}
@@ -157,6 +167,19 @@ class CampaignDefinition:
                     f"controllers that command a camera twist on the free camera ({label!r} commands "
                     f"{kind.value}: it needs an arm family and plant)",
                 )
+
+    def _checked_disturbances(self) -> dict[str, Any]:
+        from ..simulation.disturbances import Disturbances
+        from .spec import camera_from_spec
+
+        given = dict(self.disturbances or {})
+        if "seed" in given:
+            raise InvalidParameterError(
+                "disturbances.seed", given["seed"], "no seed: each case draws from the campaign's seed"
+            )
+        disturbances = Disturbances.from_dict(given)
+        disturbances.check_applies(self.plant, camera_from_spec(self.camera))  # type: ignore[arg-type]
+        return {k: v for k, v in disturbances.to_dict().items() if k != "seed"}
 
     @property
     def runs(self) -> int:
@@ -176,6 +199,7 @@ class CampaignDefinition:
             "settings": dict(self.settings or {}),
             "difficulty": self.difficulty,
             "controller_params": {k: dict(v) for k, v in self.controller_params.items()},
+            **({"disturbances": dict(self.disturbances)} if self.disturbances else {}),
         }
 
     @classmethod
@@ -199,4 +223,5 @@ class CampaignDefinition:
             duration=self.duration,  # type: ignore[arg-type]
             settings=self.settings,
             controller_params=self.controller_params,
+            disturbances=self.disturbances,
         )

@@ -134,9 +134,11 @@ def row_from_result(spec: Any, result: Any, arm: Any = None, wall_s: float = mat
     row = _base(spec, wall_s)
     n = len(result)
     status = result.status
+    complete = np.flatnonzero(np.isfinite(result.feature_error).all(axis=1)) if n else ()
     if n:
         mm, deg = result.final_pose_error()
-        final_feature = float(np.abs(result.feature_error[-1]).max())
+        # the last sample with every feature measured (a dropped marker's features are NaN)
+        final_feature = float(np.abs(result.feature_error[complete[-1]]).max()) if len(complete) else math.nan
     else:
         mm = deg = final_feature = math.nan
     straight = (

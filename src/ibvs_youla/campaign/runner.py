@@ -55,6 +55,7 @@ __all__ = [
     "SchedulerError",
     "default_workers",
     "run_campaign",
+    "start_local_cluster",
 ]
 
 _LOG = logging.getLogger(__name__)
@@ -215,19 +216,33 @@ def _recover(path: Path) -> None:
         _LOG.warning("ibvs-youla: %s", note)
 
 
+def start_local_cluster(workers: int | None = None) -> Any:
+    """A ``distributed.LocalCluster`` of ``workers`` one-thread processes (default: one per core).
+
+    What :func:`run_campaign` starts when it is given no scheduler; a caller that runs several
+    campaigns in a row (a robustness study) starts one and passes its ``scheduler_address``.
+    The caller closes it.
+    """
+    import logging
+
+    from distributed import LocalCluster
+
+    with _workers_ignore_ctrl_c():
+        return LocalCluster(
+            n_workers=workers or default_workers(),
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )
+
+
 def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any]:
     """A client of the existing scheduler, or of a new local cluster (and that cluster)."""
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     if scheduler is None:
-        with _workers_ignore_ctrl_c():
-            cluster = LocalCluster(
-                n_workers=workers or default_workers(),
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-                silence_logs=logging.ERROR,
-            )
+        cluster = start_local_cluster(workers)
         return Client(cluster), cluster
     try:
         return Client(scheduler, timeout=CONNECT_TIMEOUT_S), None

@@ -11,6 +11,12 @@ the parameters in brackets when it has any (:func:`method_label`), e.g. ``fb[ada
 for the paper's feedback-only controller with the Jacobian evaluated once. A campaign runs
 methods, so the same controller can run with and without an option side by side; the label
 is the ``controller`` column of a row.
+
+A spec's ``disturbances`` (the non-default fields of
+:class:`~ibvs_youla.simulation.disturbances.Disturbances`) enter its JSON, hence its key, only
+when there are some: the specs, keys and stored rows of undisturbed campaigns are those of the
+versions before disturbances existed. Their random draws are seeded per case from the
+campaign's seed (:func:`disturbance_seed`), so every method of a case sees the same draws.
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ __all__ = [
     "CAMERA_KINDS",
     "ExperimentSpec",
     "camera_from_spec",
+    "disturbance_seed",
     "method_label",
     "parse_method",
     "sort_methods",
@@ -169,6 +176,15 @@ def camera_from_spec(camera: Mapping[str, Any]) -> Any:
     raise InvalidParameterError("camera.kind", kind, " or ".join(repr(k) for k in CAMERA_KINDS))
 
 
+def disturbance_seed(seed: int, case: int) -> int:
+    """The seed of the disturbance draws of case ``case`` of a campaign seeded ``seed``.
+
+    ``SeedSequence(seed, spawn_key=(case, 1))``: a stream of its own, apart from the case's
+    generator (``SeedSequence(seed).spawn(...)[case]``, spawn key ``(case,)``).
+    """
+    return int(np.random.SeedSequence(seed, spawn_key=(case, 1)).generate_state(1)[0])
+
+
 @dataclass(frozen=True, eq=True)
 class ExperimentSpec:
     """One (case, method) run of a campaign, as plain data (module docstring).
@@ -187,6 +203,9 @@ class ExperimentSpec:
         duration: Simulated time [s].
         difficulty: What makes the case hard, reported with its row, e.g. ``{"rotation_deg":
             ..., "translation_m": ...}`` between the start and target camera poses.
+        disturbances: Fields of ``Disturbances`` that differ from the defaults, without a
+            seed (the case's is :func:`disturbance_seed`); empty: none, and no entry in the
+            JSON or the key.
     """
 
     family: str
@@ -200,6 +219,7 @@ class ExperimentSpec:
     controller_params: Mapping[str, Any] = field(default_factory=dict)
     settings: Mapping[str, Any] = field(default_factory=dict)
     difficulty: Mapping[str, Any] = field(default_factory=dict)
+    disturbances: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def method(self) -> str:
@@ -211,18 +231,27 @@ class ExperimentSpec:
             object.__setattr__(self, name, integer(getattr(self, name), name, low=0))
         for name in ("family", "controller", "plant"):
             object.__setattr__(self, name, text(getattr(self, name), name, empty=False))
-        for name in ("scenario", "controller_params", "camera", "settings", "difficulty"):
+        for name in ("scenario", "controller_params", "camera", "settings", "difficulty", "disturbances"):
             if not isinstance(getattr(self, name), Mapping):
                 raise InvalidParameterError(name, getattr(self, name), "a mapping (JSON object)")
             object.__setattr__(self, name, _plain(getattr(self, name)))
+        if "seed" in self.disturbances:
+            raise InvalidParameterError(
+                "disturbances.seed",
+                self.disturbances["seed"],
+                "no seed: a campaign seeds each case's disturbances from its own seed",
+            )
         object.__setattr__(self, "duration", positive(self.duration, "duration", unit="s"))
 
     def __hash__(self) -> int:
         return hash(self.key)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain data (the JSON of :meth:`to_json`)."""
-        return _plain(asdict(self))
+        """Plain data (the JSON of :meth:`to_json`); ``disturbances`` only when there are some."""
+        data = _plain(asdict(self))
+        if not data["disturbances"]:
+            del data["disturbances"]
+        return data
 
     def to_json(self) -> str:
         """Canonical JSON: sorted keys, no spaces (the input of :attr:`key`)."""
@@ -241,7 +270,7 @@ class ExperimentSpec:
     def build(self) -> dict[str, Any]:
         """Keyword arguments of :func:`ibvs_youla.simulate`: scenario, controller, plant, camera, ...
 
-        (and settings, duration), rebuilt from the plain data.
+        (and settings, duration, and disturbances when there are some), rebuilt from the plain data.
         """
         from ..controllers import make
         from ..scenarios import Scenario
@@ -261,7 +290,7 @@ class ExperimentSpec:
             from ..control.singular_values import SingularValuePolicy
 
             settings["sv_policy"] = SingularValuePolicy(**settings["sv_policy"])
-        return {
+        kwargs = {
             "scenario": scenario,
             "controller": make(self.controller, **self.controller_params),
             "plant": self.plant,
@@ -269,6 +298,12 @@ class ExperimentSpec:
             "settings": SimulationSettings(**settings),
             "duration": self.duration,
         }
+        if self.disturbances:
+            from ..simulation.disturbances import Disturbances
+
+            seed = disturbance_seed(self.seed, self.case)
+            kwargs["disturbances"] = Disturbances.from_dict({**self.disturbances, "seed": seed})
+        return kwargs
 
 
 def specs_for(
@@ -281,6 +316,7 @@ def specs_for(
     duration: float,
     settings: Mapping[str, Any] | None = None,
     controller_params: Mapping[str, Mapping[str, Any]] | None = None,
+    disturbances: Mapping[str, Any] | None = None,
 ) -> list[ExperimentSpec]:
     """One spec per (case, method), cases outer: every method runs on the same cases.
 
@@ -294,6 +330,8 @@ def specs_for(
         duration: Simulated time per run [s].
         settings: Keyword arguments of ``SimulationSettings``.
         controller_params: Label -> further parameters (added to those of the label).
+        disturbances: Fields of ``Disturbances`` for every run (no seed; each case is seeded
+            from ``seed``).
     """
     params = controller_params or {}
     methods = [(label, *parse_method(label)) for label in controllers]
@@ -310,6 +348,7 @@ def specs_for(
             controller_params={**own, **params.get(label, {})},
             settings=settings or {},
             difficulty=case.difficulty,
+            disturbances=disturbances or {},
         )
         for case in cases
         for label, name, own in methods

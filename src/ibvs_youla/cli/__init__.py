@@ -1,10 +1,12 @@
-"""The ``ibvs-youla`` command line: reproduce, simulate, compare, campaign, design, view, bench.
+"""The ``ibvs-youla`` command line: reproduce, simulate, compare, campaign, robustness, design, view, bench.
 
 ``ibvs-youla reproduce --out results`` reruns the paper's Section 7 and prints the
 table; ``simulate`` runs one scenario and writes the result, its figures and a
 summary; ``compare`` runs several methods on one scenario (or the Gans 2003 task suite)
 side by side; ``campaign`` runs every method on seeded random cases (on Dask) and
-``campaign-report`` tabulates and plots a campaign folder; ``design`` prints (and with
+``campaign-report`` tabulates and plots a campaign folder; ``robustness`` sweeps one
+disturbance (pixel noise, calibration, model mismatch, latency, saturation) over a campaign's
+cases; ``design`` prints (and with
 ``--plot`` draws) the inner, feedforward and outer designs; ``view`` plays a run in
 Meshcat; ``bench`` runs the benchmarks.
 ``ibvs-youla <command> --help`` lists the options of each.
@@ -18,8 +20,8 @@ disk, a folder that cannot be written) and, as ``internal error``, anything unex
 
 The arguments are defined in :mod:`.parser`; each subcommand lives in the module
 named after it (:mod:`.reproduce`, :mod:`.simulate`, :mod:`.compare`, :mod:`.campaign`,
-:mod:`.campaign_report`, :mod:`.design`, :mod:`.view`, :mod:`.bench`), and :mod:`.base` holds
-what they share.
+:mod:`.campaign_report`, :mod:`.robustness`, :mod:`.design`, :mod:`.view`, :mod:`.bench`),
+and :mod:`.base` holds what they share.
 """
 
 from __future__ import annotations

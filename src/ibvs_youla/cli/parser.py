@@ -9,7 +9,7 @@ from typing import Any, NoReturn
 from .. import __version__, controllers
 from .. import scenarios as _scenarios
 from ..simulation.simulate import PLANTS
-from . import bench, campaign, campaign_report, compare, design, reproduce, simulate, view
+from . import bench, campaign, campaign_report, compare, design, reproduce, robustness, simulate, view
 from .base import PROG, UsageError, folder_path
 
 
@@ -43,7 +43,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog=PROG,
         description="Stereo IBVS with feedforward and adaptive Youla control (Li & Assadian): "
-        "reproduce the paper, simulate a scenario, compare methods, run seeded campaigns, inspect the "
+        "reproduce the paper, simulate a scenario, compare methods, run seeded campaigns and robustness "
+        "studies, inspect the "
         "controller designs, view a run, benchmark. Errors print one line and exit with 2 (bad arguments) "
         "or 1.",
     )
@@ -238,6 +239,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     campaign_report.configure(p)
     p.set_defaults(func=campaign_report.run)
+    p = sub.add_parser(
+        "robustness",
+        help="sweep one disturbance (noise, calibration, mismatch, latency, saturation) over seeded cases",
+        description="sweep one disturbance over the same seeded campaign cases, every method, on this "
+        "machine's cores or a Dask cluster (one campaign per value in OUT/<axis>=<value>, resumable), then "
+        "write a table and figures: success with 95 % Wilson intervals, final pose error and time to "
+        "reach against the value",
+    )
+    robustness.configure(p, _positive)
     return parser
 
 

@@ -50,6 +50,19 @@ from .integrators import rk4_arm_step
 __all__ = ["ArmPlant", "DivergenceBounds"]
 
 
+# what the plant uses of its arm (an Arm, or the disturbances' PlantArm around one)
+_ARM_INTERFACE = (
+    "aba",
+    "forward_dynamics",
+    "camera_fk",
+    "camera_pose",
+    "q_min",
+    "q_max",
+    "dq_max",
+    "tau_max",
+)
+
+
 @dataclass(frozen=True)
 class DivergenceBounds:
     """When the plant declares a run diverged (module docstring).
@@ -103,7 +116,10 @@ class ArmPlant:
     ) -> None:
         from ..model.arm import Arm
 
-        self.arm = instance(arm, "arm", Arm, "an Arm (its dynamics are simulated)")
+        if not isinstance(arm, Arm) and not all(hasattr(arm, a) for a in _ARM_INTERFACE):
+            # an Arm, or what wraps one for the plant (the disturbances' PlantArm: friction, limits)
+            instance(arm, "arm", Arm, "an Arm, or an object with its " + ", ".join(_ARM_INTERFACE))
+        self.arm = arm
         self._n = len(np.asarray(arm.q_min))
         n = self._n
         d = np.zeros(n) if joint_offset is None else as_array(joint_offset, "joint_offset", (n,))

@@ -39,6 +39,7 @@ from ..model.arm import Arm
 from ..model.camera import PinholeCamera, StereoCamera, default_camera
 from ..scenarios import Scenario
 from .actuation import actuation_chain
+from .disturbances import Disturbances
 from .free_camera import FreeCameraPlant
 from .kinematic_arm import KinematicArmPlant
 from .loop import ServoLoop
@@ -133,6 +134,7 @@ def simulate(
     arm: Arm | None = None,
     beliefs: Beliefs | None = None,
     sensor: str | Callable[[MarkerSensor], Any] | None = None,
+    disturbances: Disturbances | None = None,
     progress: bool = False,
 ) -> SimulationResult:
     """Simulate one scenario in closed loop and return every signal as data.
@@ -163,6 +165,9 @@ def simulate(
             ``measure(T_O_C, t) -> CameraFrame``; e.g. ``lambda truth: ImageSensor(truth,
             DiscMarkers(0.04), ImagingSettings(blur_sigma_px=1.0))``, or a wrapper that disturbs
             ``truth.measure``). The goal features stay the true projections at the target.
+        disturbances: Pixel noise, dropouts, calibration errors (on top of ``beliefs``), model
+            mismatch, latency, actuator limits (:class:`~.disturbances.Disturbances`); each
+            wraps a role built here, and ``None`` or all-off wraps nothing.
         progress: Show a progress bar (tqdm) on stderr.
 
     Returns:
@@ -176,11 +181,12 @@ def simulate(
         InvalidParameterError: unknown controller, plant or sensor, ``adaptive`` or ``progress``
             not True or False, a duration that is not a real number > 0, is shorter than one
             tick or whose recording would not fit in memory (refused before allocating; the
-            message gives the size and what reduces it), a scenario, settings, arm, camera or
-            beliefs of the wrong type, a sensor function that returns no sensor, a joint rate
-            below 1/tau_in on an arm plant, a free-camera scenario on an arm plant, or a
-            controller that cannot use the task (e.g. the paper's controller with a monocular
-            camera).
+            message gives the size and what reduces it), a scenario, settings, arm, camera,
+            beliefs or disturbances of the wrong type, a sensor function that returns no
+            sensor, a joint rate below 1/tau_in on an arm plant, a free-camera scenario on an
+            arm plant, a disturbance with nothing to act on (e.g. friction on the kinematic
+            arm), or a controller that cannot use the task (e.g. the paper's controller with a
+            monocular camera).
         IncompatibleCommandError: the controller's command cannot drive the plant.
         JointLimitError: the scenario's configurations are outside the arm's limits.
         SimulationDivergedError: a state left its bounds; ``error.partial`` holds the
@@ -194,6 +200,7 @@ def simulate(
         ("arm", arm, Arm),
         ("camera", camera, (StereoCamera, PinholeCamera)),
         ("beliefs", beliefs, Beliefs),
+        ("disturbances", disturbances, Disturbances),
     ):
         if not (isinstance(value, kind) or (value is None and name != "scenario")):
             valid = " or ".join(k.__name__ for k in (kind if isinstance(kind, tuple) else (kind,)))
@@ -201,13 +208,16 @@ def simulate(
     adaptive, progress = flag(adaptive, "adaptive"), flag(progress, "progress")
     settings = SimulationSettings() if settings is None else settings
     beliefs = Beliefs() if beliefs is None else beliefs
-    ctrl = _controller(controller, adaptive, settings)
+    disturbances = Disturbances() if disturbances is None else disturbances
+    ctrl = disturbances.wrap_controller(_controller(controller, adaptive, settings))
     camera = default_camera() if camera is None else camera
+    disturbances.check_applies(plant, camera)
+    noise_rng, dropout_rng, marker_rng = disturbances.generators()
     if plant == "free-camera":
         world = _free_camera_world(scenario, arm, settings)
     else:
         arm = Arm.irb4600() if arm is None else arm
-        world = _arm_world(scenario, plant, arm, settings)
+        world = _arm_world(scenario, plant, arm, settings, disturbances)
     ticks = duration / world.dt  # a float: 1e308 s is inf ticks, refused below before any rounding
     if ticks < 1.0 - 1e-9:  # no silent zero-step (or rounded-up) run
         raise InvalidParameterError(
@@ -216,8 +226,11 @@ def simulate(
             f"at least one tick of the {plant!r} plant, {world.dt:g} s (settings' rates)",
         )
     truth = MarkerSensor(camera, scenario.markers_O, virtual_points=scenario.virtual_points)
-    measuring = _sensor(sensor, truth)
+    chosen = _sensor(sensor, truth)
+    measuring = disturbances.wrap_sensor(chosen, noise_rng, dropout_rng)
     beliefs.check_against(scenario, camera, world.arm is not None)
+    if disturbances.calibration_changed:
+        beliefs = _disturbed_beliefs(beliefs, disturbances, scenario, camera, world.arm, marker_rng)
     model_arm = None
     if world.arm is not None:
         model_arm = world.arm if beliefs.arm is None else beliefs.arm
@@ -235,8 +248,11 @@ def simulate(
     task = ServoTask(
         camera=camera if beliefs.camera is None else beliefs.camera,
         markers_O=scenario.markers_O if beliefs.markers_O is None else beliefs.markers_O,
-        # taught by showing: the goal is what the true camera saw at the true target pose
-        feature_target=truth.features_at(world.T_O_C_target),
+        # taught by showing: the goal is what the camera saw at the true target pose, noise-free, in
+        # the controller's conversion (a sensor function's sensor without features_at: the truth's)
+        feature_target=(measuring if hasattr(chosen, "features_at") else truth).features_at(
+            world.T_O_C_target
+        ),
         T_O_C_target=world.T_O_C_target,
         tick_period=world.dt,
         frame_period=world.dt * world.ticks_per_frame,
@@ -281,9 +297,11 @@ def simulate(
     n_ticks = round(ticks)
     n_rows = n_ticks // record_every + 2
     metadata = _metadata(scenario, ctrl, plant, world, camera, settings, beliefs, n_ticks)
-    if measuring is not truth:  # recorded only when a sensor was chosen: undisturbed runs keep their metadata
-        describe = getattr(measuring, "spec", None)
-        metadata["spec"]["sensor"] = describe() if callable(describe) else type(measuring).__name__
+    if chosen is not truth:  # recorded only when a sensor was chosen: undisturbed runs keep their metadata
+        describe = getattr(chosen, "spec", None)
+        metadata["spec"]["sensor"] = describe() if callable(describe) else type(chosen).__name__
+    if disturbances.active:
+        metadata["disturbances"] = metadata["spec"]["disturbances"] = disturbances.to_dict()
     recorder = ResultRecorder(
         task.feature_target,
         world.T_O_C_target,
@@ -397,7 +415,31 @@ class _World:
     T_O_C_target: np.ndarray
 
 
-def _arm_world(scenario: Scenario, plant: str, arm: Arm, settings: SimulationSettings) -> _World:
+def _disturbed_beliefs(
+    beliefs: Beliefs,
+    disturbances: Disturbances,
+    scenario: Scenario,
+    camera: Any,
+    arm: Arm | None,
+    rng: np.random.Generator,
+) -> Beliefs:
+    """The beliefs with the calibration errors of ``disturbances`` applied on top."""
+    new_arm, new_camera, new_markers = disturbances.believed_models(
+        beliefs.arm if beliefs.arm is not None else arm,
+        beliefs.camera if beliefs.camera is not None else camera,
+        beliefs.markers_O if beliefs.markers_O is not None else scenario.markers_O,
+        rng,
+    )
+    return Beliefs(
+        arm=beliefs.arm if new_arm is None else new_arm,
+        camera=beliefs.camera if new_camera is None else new_camera,
+        markers_O=beliefs.markers_O if new_markers is None else new_markers,
+    )
+
+
+def _arm_world(
+    scenario: Scenario, plant: str, arm: Arm, settings: SimulationSettings, disturbances: Disturbances
+) -> _World:
     if not scenario.has_joints:
         raise InvalidParameterError(
             "plant", plant, f"'free-camera' for the free-camera scenario {scenario.name!r} (it has no joints)"
@@ -412,12 +454,13 @@ def _arm_world(scenario: Scenario, plant: str, arm: Arm, settings: SimulationSet
             "runs at the joint rate and needs a period <= tau_in",
         )
     if plant == "dynamic":
+        saturate = settings.saturate or disturbances.limit_scale is not None
         world_plant: Any = ArmPlant(
-            arm,
+            disturbances.plant_arm(arm),  # the true arm, if it differs from the controller's model
             scenario.joint_offset,
             q_encoder=scenario.q_start,
-            saturate_torque=settings.saturate,
-            saturate_speed=settings.saturate,
+            saturate_torque=saturate,
+            saturate_speed=saturate,
         )
     else:
         world_plant = KinematicArmPlant(

@@ -19,7 +19,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / ROOT
 
 # Low -> high. A module may import its own layer and the layers before it.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("_validation", "_linalg", "_geometry", "exceptions"),
+    ("_validation", "_jit", "_linalg", "_geometry", "exceptions"),
     ("model",),
     ("estimation",),
     ("control",),

@@ -5,8 +5,9 @@ diagonal MIMO system ``G(s) * I_m`` (Eq. (36), (45), (47), and ERRATA 9 for the 
 loop), so one SISO realization ``(A, B, C, D)`` with an ``(n, m)`` state array serves
 all m channels. The filter runs inside the simulation loop (about 10^4 calls per
 simulated second across all filters), so :meth:`DiscreteFilter.step` is one product
-of the stacked matrix [[A, B], [C, D]] with [x; u] into a preallocated buffer, behind
-a shape check that costs about 0.1 us; nothing here rebuilds a transfer function.
+of the stacked matrix [[A, B], [C, D]] with [x; u] into a preallocated buffer (one compiled
+call, :func:`filter_step`), behind a shape check that costs
+about 0.1 us; nothing here rebuilds a transfer function.
 
 Discretization (:meth:`DiscreteFilter.from_tf`) uses ``scipy.signal.cont2discrete``:
 
@@ -28,13 +29,34 @@ import control as ct
 import numpy as np
 from scipy.signal import cont2discrete
 
+from .._jit import jit
 from .._validation import as_array, one_of, positive
 from ..exceptions import InvalidArrayError, InvalidParameterError
 
-__all__ = ["METHODS", "DiscreteFilter"]
+__all__ = ["METHODS", "DiscreteFilter", "filter_step"]
 
 METHODS = ("zoh", "foh", "tustin")
 _SCIPY_METHOD = {"zoh": "zoh", "foh": "foh", "tustin": "bilinear"}
+
+
+@jit
+def filter_step(M: np.ndarray, z: np.ndarray, z_next: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """z[-1] = u, z_next = M z; returns a copy of z_next[-1], the output y (compiled).
+
+    The kernel of :meth:`DiscreteFilter.step`: M = [[A, B], [C, D]] (n + 1, n + 1), z = [x; u]
+    (n + 1, m) and z_next (n + 1, m), so z_next = [A x + B u; C x + D u]. Unvalidated; pinned to
+    ``M.dot(z)`` by ``tests/test_compiled_kernels.py``.
+    """
+    rows, m = z.shape
+    for j in range(m):
+        z[rows - 1, j] = u[j]
+    for a in range(rows):
+        for j in range(m):
+            acc = 0.0
+            for b in range(rows):
+                acc += M[a, b] * z[b, j]
+            z_next[a, j] = acc
+    return z_next[rows - 1].copy()
 
 
 class DiscreteFilter:
@@ -181,10 +203,9 @@ class DiscreteFilter:
             if u.shape != self._shape:
                 raise InvalidArrayError("u", f"an array of shape {u.shape}", f"shape {self._shape}")
         z, z_next = self._z, self._z_next
-        z[-1] = u
-        self._M.dot(z, out=z_next)  # [A x + B u; C x + D u]
+        y = filter_step(self._M, z, z_next, u)  # z[-1] = u; z_next = [A x + B u; C x + D u]: compiled
         self._z, self._z_next = z_next, z
-        return z_next[-1].copy()
+        return y
 
     # ------------------------------------------------------------------ resets
     def reset(self, state: Any = None) -> None:

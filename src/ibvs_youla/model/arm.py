@@ -43,10 +43,10 @@ from .actuators import ActuatorParameters
 from .ik import (
     SphericalWristParameters,
     closed_form_branches,
-    nearest_branch,
     numerical_branches,
     select_branches,
 )
+from .ik_kernels import ik_parameter_array, nearest_branch_compiled
 
 __all__ = ["ActuatorParameters", "Arm"]
 
@@ -138,7 +138,16 @@ class Arm:
         rng = np.random.default_rng(0)
         lo, hi = np.maximum(self.q_min, -math.pi), np.minimum(self.q_max, math.pi)
         self._ik_seeds = lo + (hi - lo) * rng.random((_IK_SEEDS, _N))
-        self._q_min_list, self._q_max_list = self.q_min.tolist(), self.q_max.tolist()
+
+    @property
+    def ik_parameters(self) -> SphericalWristParameters | None:
+        """Lengths used by the closed-form IK, or None (numerical IK)."""
+        return self._ik_parameters
+
+    @ik_parameters.setter
+    def ik_parameters(self, params: SphericalWristParameters | None) -> None:
+        self._ik_parameters = params
+        self._ik_array = None if params is None else ik_parameter_array(params)  # for the compiled IK
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -350,6 +359,15 @@ class Arm:
         """
         return pin.aba(self.model, self._thread_data.data, q, dq, tau - self.damping * dq)
 
+    def pinocchio_model_data(self) -> tuple[pin.Model, pin.Data]:
+        """(:attr:`model`, the calling thread's Pinocchio ``Data``), for kernels that call Pinocchio.
+
+        E.g. the plant's RK4 (:class:`~ibvs_youla.simulation.integrators.ArmRk4`), which calls
+        ``pin.aba`` between compiled stages and applies the damping itself. Use both in this
+        thread only, and do not modify the model.
+        """
+        return self.model, self._thread_data.data
+
     def inverse_dynamics(self, q: Any, dq: Any, ddq: Any) -> np.ndarray:
         """Joint torques tau = M(q) ddq + h(q, dq) (6,) [N m], Eq. (30) (see `rnea`)."""
         return self.rnea(as_array(q, "q", _VEC), as_array(dq, "dq", _VEC), as_array(ddq, "ddq", _VEC))
@@ -424,16 +442,31 @@ class Arm:
         Kernel: does not validate its arguments. ``T_O_C`` must be a rigid (4, 4) float pose
         (e.g. from stereo P3P, orthonormal to rounding, so the projection onto SO(3) of :meth:`ik`
         is skipped) and ``q_near`` a finite float (6,) array [rad]. With the closed form, the
-        nearest in-limit branch (:func:`~ibvs_youla.model.ik.nearest_branch`) is returned if it
-        passes the pose check of :meth:`ik`; any other case (no closed form, nearest branch
-        rejected, no branch) is delegated to :meth:`ik`, which also raises its errors.
+        nearest in-limit branch (:func:`~ibvs_youla.model.ik.nearest_branch`, compiled:
+        :mod:`~ibvs_youla.model.ik_kernels`) is returned if it passes the pose check of :meth:`ik`;
+        any other case (no closed form, nearest branch rejected, no branch) is delegated to
+        :meth:`ik`, which also raises its errors.
         """
-        if self.ik_parameters is not None:
-            T_O_E = T_O_C.dot(self._T_C_E)
-            q = nearest_branch(self.ik_parameters, T_O_E, self._q_min_list, self._q_max_list, q_near.tolist())
-            if q is not None:
-                q = np.array(q)
-                d = (self.camera_fk(q) - T_O_C).ravel()
+        return self.ik_nearest_kinematics(T_O_C, q_near)[0]
+
+    def ik_nearest_kinematics(
+        self, T_O_C: np.ndarray, q_near: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(q, T_O_C(q), J_C(q)): :meth:`ik_nearest`, and :meth:`camera_pose_and_jacobian` at q.
+
+        Both from the one kinematics pass that checks the IK branch (the kinematics computed once
+        per configuration).
+
+        Kernel: arguments as :meth:`ik_nearest`.
+        """
+        if self._ik_array is not None:
+            found, q = nearest_branch_compiled(
+                self._ik_array, T_O_C, self._T_C_E, self.q_min, self.q_max, q_near, 1e-9
+            )
+            if found:
+                T_q, J_C = self.camera_pose_and_jacobian(q)
+                d = (T_q - T_O_C).ravel()
                 if d.dot(d) <= _IK_TOL**2 or np.abs(d).max() <= _IK_TOL:  # the first implies the second
-                    return q
-        return self.ik(T_O_C, q_near=q_near)[0]
+                    return q, T_q, J_C
+        q = self.ik(T_O_C, q_near=q_near)[0]
+        return (q, *self.camera_pose_and_jacobian(q))

@@ -23,9 +23,23 @@ import warnings
 from collections.abc import Callable
 from typing import Any, TypeVar
 
-__all__ = ["jit", "jit_available"]
+__all__ = ["COMPILE_ERRORS", "jit", "jit_available"]
 
 F = TypeVar("F", bound=Callable[..., Any])
+
+
+def _compile_errors() -> tuple[type[Exception], ...]:
+    try:
+        from numba.core.errors import TypingError
+    except ImportError:
+        return (TypeError, ValueError, AttributeError)
+    return (TypingError, TypeError, ValueError, AttributeError)
+
+
+# What a compiled kernel raises for arguments of a type it was not written for (Numba's typing
+# error; the interpreter's errors when the kernels run as plain Python): callers with a checked
+# path take it then.
+COMPILE_ERRORS = _compile_errors()
 
 
 def jit_available() -> bool:

@@ -36,6 +36,7 @@ import numpy as np
 import pinocchio as pin
 
 from .._jit import jit
+from ..model.arm import ABA_CONVENTION
 
 __all__ = ["ArmRk4", "rk4_arm_step", "rk4_step"]
 
@@ -192,9 +193,9 @@ class ArmRk4:
         Unvalidated: finite float arrays; the result is a new array (x is not modified).
         """
         model, data = self._arm.pinocchio_model_data()
-        W, q, dq, tau_stage = self._W, self._q, self._dq, self._tau
+        W, q, dq, tau_stage, world = self._W, self._q, self._dq, self._tau, ABA_CONVENTION
         rk4_begin(W, x, tau)
-        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage), 0, dt)
-        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage), 1, dt)
-        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage), 2, dt)
-        return rk4_end(W, pin.aba(model, data, q, dq, tau_stage), dt)  # type: ignore[no-any-return]
+        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world), 0, dt)
+        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world), 1, dt)
+        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world), 2, dt)
+        return rk4_end(W, pin.aba(model, data, q, dq, tau_stage, world), dt)  # type: ignore[no-any-return]

@@ -301,7 +301,8 @@ RUN = textwrap.dedent(
     import json, sys
     import numpy as np
     import ibvs_youla as iy
-        from ibvs_youla.model.camera_kernels import measure_features
+    from ibvs_youla import scenarios
+    from ibvs_youla.model.camera_kernels import measure_features
     from ibvs_youla._jit import jit_available
     r = iy.simulate(scenarios.paper(2), "ff+fb", duration=0.03, settings=iy.SimulationSettings.paper())
     stats = getattr(measure_features, "stats", None)

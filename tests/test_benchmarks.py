@@ -41,32 +41,47 @@ def test_outer_loop_benchmark_writes_its_keys(tmp_path):
         "floor_median_us",
         "ratio_to_floor",
         "rebuild_ratio",
-        "features_median_us",
-        "pose_ik_median_us",
+        "camera_pose_median_us",
+        "sensor_median_us",
+        "p3p_median_us",
+        "ik_median_us",
         "jacobian_median_us",
-        "svd_median_us",
+        "svd_gains_median_us",
         "state_update_median_us",
     ]
     for key in keys:
         assert finite_positive(saved[key]), key
     assert saved["ratio_to_floor"] == pytest.approx(saved["update_median_us"] / saved["floor_median_us"])
+    assert saved["glue_median_us"] == pytest.approx(saved["update_median_us"] - saved["parts_sum_median_us"])
+    assert saved["target"]["met"] == (saved["ratio_to_floor"] <= 2.5)
     assert saved["stats"]["update"]["n"] == 4
     assert saved["machine"]["cores"] >= 1 and saved["machine"]["date"]
     assert report["update_median_us"] == saved["update_median_us"]
+    assert [h["ratio_to_floor"] for h in saved["history"]] == [saved["ratio_to_floor"]]
 
 
 @pytest.mark.slow
 def test_simulation_benchmark_writes_realtime_factors(tmp_path):
     out = tmp_path / "simulation.json"
-    load("bench_simulation").main(["--duration", "0.02", "--repeats", "1", "--json", str(out)])
+    load("bench_simulation").main(
+        ["--duration", "0.02", "--classical-duration", "0.2", "--repeats", "1", "--json", str(out)]
+    )
     saved = json.loads(out.read_text())
     assert set(saved["realtime_factor"]) == {"paper-1", "paper-2"}
     for factors in saved["realtime_factor"].values():
         assert set(factors) == {"paper", "two-rate"}
         assert all(finite_positive(v) for v in factors.values())
-    for case in saved["cases"].values():
+    for case in [*saved["cases"].values(), *saved["classical"].values()]:
         assert case["status"] == "complete"
         assert sum(case["split"]["fraction"].values()) == pytest.approx(1.0)
+    assert set(saved["classical"]) == {
+        "kinematic/physical-2",
+        "free-camera/physical-2",
+        "free-camera/gans-general",
+    }
+    assert all(finite_positive(c["realtime_factor"]) for c in saved["classical"].values())
+    met = saved["targets"]["met"]
+    assert met["two-rate"]["paper-1"] == (saved["realtime_factor"]["paper-1"]["two-rate"] >= 50.0)
 
 
 @pytest.mark.slow
@@ -156,3 +171,32 @@ def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
     assert set(saved["targets"]["met"]) == {"scaling", "overhead_share", "free_1000x7_minutes"}
     assert saved["machine"]["cores"] >= 1 and saved["machine"]["date"]
     assert report["campaigns"]["free"]["scaling"] == saved["campaigns"]["free"]["scaling"]
+
+
+def test_reports_keep_their_history(tmp_path):
+    """write_json appends the run's headline to the file's history; a report from before histories
+    existed becomes the first entry; the latest report stays at the top level."""
+    timing = load("_timing")
+    out = tmp_path / "report.json"
+    legacy = {
+        "benchmark": "x",
+        "ratio": 5.5,
+        "machine": {"date": "2026-11-23T11:19:00+00:00", "load_average_1min": 0.7},
+    }
+    out.write_text(json.dumps(legacy))
+    for ratio, date in ((2.2, "2026-12-02T10:00:00+00:00"), (2.1, "2026-12-02T11:00:00+00:00")):
+        report = {
+            "benchmark": "x",
+            "ratio": ratio,
+            "machine": {"date": date, "load_average": [0.5, 0.4, 0.3]},
+        }
+        timing.write_json(str(out), report, lambda r: {"ratio": r["ratio"]})
+    saved = json.loads(out.read_text())
+    assert saved["ratio"] == 2.1
+    assert [h["ratio"] for h in saved["history"]] == [5.5, 2.2, 2.1]
+    assert [h["date"][:10] for h in saved["history"]] == ["2026-11-23", "2026-12-02", "2026-12-02"]
+    assert saved["history"][0]["load_average"] == [0.7] and saved["history"][-1]["load_average"] == [
+        0.5,
+        0.4,
+        0.3,
+    ]

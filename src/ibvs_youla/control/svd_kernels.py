@@ -1,23 +1,19 @@
-"""Compiled SVD gains and pseudo-inverse products, for the servo loop.
+"""Compiled SVD gains and the product P e of the adaptive outer loop.
 
-Numba-compiled twins (:func:`ibvs_youla._jit.jit`) of the hot paths of
-:mod:`ibvs_youla.control.singular_values`:
-
-* :func:`svd_gains_apply`: J = U Sigma V^T (LAPACK ``dgesdd`` through Numba, as
-  ``_linalg.svd``), the bounded inverse gains g(sigma_i) of ERRATA 7
-  (``SingularValuePolicy._gains``) and P e = V (g * (U^T e)), the input of the outer loop's
-  filter (Eq. (57)-(61), ``OuterLoopController.advance``);
-* :func:`pseudo_inverse_apply`: (V diag(g) U^T) x, the pseudo-inverse formed then applied, as
-  ``policy.pseudo_inverse(J) @ x`` (the twist to joint velocity of the actuation chain).
+:func:`svd_gains_apply` is the Numba-compiled twin (:func:`ibvs_youla._jit.jit`) of the hot path
+of ``OuterLoopController.advance`` (:mod:`ibvs_youla.control.singular_values`): J = U Sigma V^T
+(LAPACK ``dgesdd``, :func:`ibvs_youla._linalg.gesdd`, the reference's call bit for bit), the
+bounded inverse gains g(sigma_i) of ERRATA 7 (``SingularValuePolicy._gains``) and
+P e = V (g * (U^T e)), the input of the outer loop's filter (Eq. (57)-(61)).
 
 The gains are those of ``SingularValuePolicy`` with ``damped`` True (damped least squares,
 lambda = threshold sigma_max) or False (truncation below threshold sigma_max); singular values
-under the numerical rank tolerance max(m, n) eps sigma_max get 0. The SVD is
-:func:`ibvs_youla._linalg.gesdd` (the reference's LAPACK call, bit for bit). The functions
-return ``ok = False`` when the reference would not give a plain result (LAPACK failed, a
-non-finite entry, every singular value zero); the caller then runs the reference, which raises
-or returns what it returns. Unvalidated; ``tests/test_compiled_kernels.py`` pins them to the
-references.
+under the numerical rank tolerance max(m, n) eps sigma_max get 0. It returns ``ok = False`` when
+the reference would not give a plain result (LAPACK failed, a non-finite entry, every singular
+value zero); the caller then runs the reference, which raises or returns what it returns. The
+two products are summed in loops, not by BLAS as in the reference: equal to a few ulps, which
+the paper controller's regression guard (1e-8) allows. Unvalidated; pinned to the reference by
+``tests/test_compiled_kernels.py``.
 """
 
 from __future__ import annotations
@@ -27,7 +23,7 @@ import numpy as np
 from .._jit import jit
 from .._linalg import gesdd
 
-__all__ = ["pseudo_inverse_apply", "svd_gains_apply"]
+__all__ = ["svd_gains_apply"]
 
 _EPS = float(np.finfo(float).eps)
 
@@ -75,24 +71,3 @@ def svd_gains_apply(
             acc += Vt[i, j] * w[i]
         Pe[j] = acc
     return Pe, U, s, g, Vt, ok
-
-
-@jit
-def pseudo_inverse_apply(
-    J: np.ndarray, x: np.ndarray, damped: bool, threshold: float
-) -> tuple[np.ndarray, bool]:
-    """((V diag(g) U^T) x (n,), ok) for J (m, n) and x (m,): the pseudo-inverse formed, then applied."""
-    U, s, Vt, info = gesdd(J)
-    m, k, n = J.shape[0], s.shape[0], J.shape[1]
-    g, ok = _gains(s, max(m, n), damped, threshold)
-    ok = ok and info == 0
-    y = np.zeros(n)
-    for j in range(n):
-        acc = 0.0
-        for r in range(m):
-            p = 0.0
-            for i in range(k):  # P[j, r] = sum_i V[j, i] g_i U[r, i]
-                p += Vt[i, j] * g[i] * U[r, i]
-            acc += p * x[r]
-        y[j] = acc
-    return y, ok

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._geometry import inverse_pose, transform_points
-from ..estimation.monocular_pose import estimate_camera_pose
+from ..estimation.monocular_pose import CameraPoseEstimator, estimate_camera_pose
 from ..exceptions import InvalidParameterError
 from ..model.camera import PinholeCamera, StereoCamera, points_interaction_matrix, triangulate_points
 from .base import ServoTask
@@ -53,13 +53,19 @@ def feature_rows(task: ServoTask, controller: str) -> int:
     return rows
 
 
-def current_interaction_matrix(task: ServoTask, features: np.ndarray, rows: int) -> np.ndarray:
-    """L(s, Z) (m, 6) at the measured features, depths from the controller's model (module docstring)."""
+def current_interaction_matrix(
+    task: ServoTask, features: np.ndarray, rows: int, pose: CameraPoseEstimator | None = None
+) -> np.ndarray:
+    """L(s, Z) (m, 6) at the measured features, depths from the controller's model (module docstring).
+
+    ``pose``: for a monocular camera, ``CameraPoseEstimator(task.camera, task.markers_O)`` made once
+    (the same pose as ``estimate_camera_pose``, without checking the markers at every frame).
+    """
     camera, n = task.camera, task.n_points
     if rows == 3:
         P_C = triangulate_points(camera, features.reshape(n, 3), task.virtual_points)
     else:
-        T_O_C = estimate_camera_pose(camera, features, task.markers_O)
+        T_O_C = estimate_camera_pose(camera, features, task.markers_O) if pose is None else pose(features)
         Z = transform_points(inverse_pose(T_O_C), task.markers_O)[:, 2]  # [m]
         P_C = np.column_stack((features.reshape(n, 2) * (Z / camera.focal_length)[:, None], Z))
     return points_interaction_matrix(camera, P_C, task.virtual_points)

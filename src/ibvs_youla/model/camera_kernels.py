@@ -4,8 +4,9 @@ Each function is the Numba-compiled twin (:func:`ibvs_youla._jit.jit`) of the pl
 kernels of :mod:`ibvs_youla.model.camera`, fused with the frame change that precedes it, so that
 a camera frame costs one call instead of a dozen numpy calls and per-point loops:
 
-* :func:`measure_features`: P_C = T_C_O P_O (Eq. (21)-(22)), then the features (Eq. (9)-(11),
-  ERRATA 12) and the visibility flags (reference: ``project_points`` and ``visible_points``);
+* :func:`measure_features`: the features (Eq. (9)-(11), ERRATA 12) and the visibility flags of
+  points P_C in the camera frame (reference: ``project_points`` and ``visible_points``, the same
+  operations in the same order: the same floats);
 * :func:`image_jacobian`: P_C, then L(P_C) J_C, the 9x6 image Jacobian of Eq. (51)
   (reference: ``points_interaction_matrix(...).dot(J_C)``);
 * :func:`triangulate`: the inverse stereo map of Eq. (C6)-(C8) (reference:
@@ -82,10 +83,9 @@ def _bad_depth(Z: float, allow_behind: bool) -> bool:
 
 @jit
 def measure_features(
-    T_O_C: np.ndarray, markers_O: np.ndarray, params: np.ndarray, lens_x: np.ndarray, allow_behind: bool
+    P: np.ndarray, params: np.ndarray, lens_x: np.ndarray, allow_behind: bool
 ) -> tuple[np.ndarray, np.ndarray, int]:
-    """(features ((k + 1) n,), visible (n,) bool, first point of bad depth or -1) seen from T_O_C."""
-    P = _points_in_camera(T_O_C, markers_O)
+    """(features ((k + 1) n,), visible (n,), first point of bad depth or -1) of points P (n, 3) in {C}."""
     n, k = P.shape[0], lens_x.shape[0]
     F, pitch, skew = params[_F], params[_PITCH], params[_SKEW]
     u0, v0, u_max, v_max = params[_U0], params[_V0], params[_U_MAX], params[_V_MAX]

@@ -86,9 +86,8 @@ class MarkerSensor:
         Raises:
             PointBehindCameraError: a marker at Z_C <= 0 (at |Z_C| ~ 0 with virtual points).
         """
-        features, visible, bad = measure_features(
-            T_O_C, self.markers_O, self._params, self._lens_x, self.virtual_points
-        )  # one compiled call: project_points and visible_points of P_C = T_C_O P_O
+        P_C = self.points_in_camera(T_O_C)
+        features, visible, bad = measure_features(P_C, self._params, self._lens_x, self.virtual_points)
         if bad >= 0:  # a depth the projection rejects: the reference raises its error
-            project_points(self.camera, self.points_in_camera(T_O_C), self.virtual_points)
+            project_points(self.camera, P_C, self.virtual_points)
         return CameraFrame(t, features, visible)

@@ -24,6 +24,12 @@ def load(name):
     return module
 
 
+def controllers_names():
+    from ibvs_youla import controllers
+
+    return controllers.names()
+
+
 def finite_positive(x):
     return isinstance(x, float) and math.isfinite(x) and x > 0.0
 
@@ -168,7 +174,18 @@ def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
         assert campaign["scaling"] == pytest.approx(two / one)
     minutes = saved["projection"]["free_1000x7_minutes"]
     assert minutes["2"] == pytest.approx(7000 / saved["campaigns"]["free"]["workers"]["2"]["runs_per_minute"])
-    assert set(saved["targets"]["met"]) == {"scaling", "overhead_share", "free_1000x7_minutes"}
+    assert set(saved["targets"]["met"]) == {
+        "scaling",
+        "overhead_share",
+        "free_1000x7_minutes",
+        "arm_1000x7_minutes",
+    }
+    arm = saved["projection"]["arm_1000x7_minutes"]
+    assert finite_positive(arm["2"]) and finite_positive(
+        saved["projection"]["arm_1000x7_all_methods_minutes"]["2"]
+    )
+    assert set(saved["projection"]["arm_run_s_by_method"]) == set(controllers_names())
+    assert len(saved["history"]) == 1 and saved["history"][0]["arm_1000x7_minutes_2_workers"] == arm["2"]
     assert saved["machine"]["cores"] >= 1 and saved["machine"]["date"]
     assert report["campaigns"]["free"]["scaling"] == saved["campaigns"]["free"]["scaling"]
 

@@ -24,7 +24,7 @@ from ibvs_youla._linalg import gesdd
 from ibvs_youla.control.discrete import DiscreteFilter, filter_step
 from ibvs_youla.control.outer import OuterLoopDesign
 from ibvs_youla.control.singular_values import SingularValuePolicy
-from ibvs_youla.control.svd_kernels import svd_gains_apply
+from ibvs_youla.control.svd_kernels import pseudo_inverse_apply, svd_gains_apply
 from ibvs_youla.estimation.stereo_kernels import camera_pose_from_features, kabsch_centred_compiled
 from ibvs_youla.estimation.stereo_pose import kabsch_centred
 from ibvs_youla.exceptions import InvalidDisparityError, PointBehindCameraError
@@ -204,8 +204,9 @@ def test_gesdd_is_the_f2py_dgesdd_bit_for_bit(shape):
 
 
 @pytest.mark.parametrize("policy", [SingularValuePolicy(), SingularValuePolicy("truncate", 1e-2)])
-def test_svd_gains_apply_equals_the_policy(policy):
-    """P e to 1e-13 of the terms |V| |g| |U^T| |e| (sums in another order); U, s, g, Vt bit for bit."""
+def test_svd_gains_apply_and_pseudo_inverse_apply_equal_the_policy(policy):
+    """P e and J^+ x to 1e-13 of the terms |V| |g| |U^T| |e| (sums in another order); U, s, g, Vt
+    bit for bit."""
     damped = policy.kind == "damped"
     rng = np.random.default_rng(SEED + 6)
     for rank in (6, 5, 3):
@@ -219,7 +220,13 @@ def test_svd_gains_apply_equals_the_policy(policy):
                 np.testing.assert_array_equal(got, expected)
             terms = np.abs(Vt.T) @ (np.abs(g) * (np.abs(U.T) @ np.abs(e)))
             np.testing.assert_array_less(np.abs(Pe - Vt.T.dot(g * U.T.dot(e))), 1e-13 * terms + 1e-300)
+            J_C, x = J[:6], e[:6]
+            P = policy.pseudo_inverse(J_C)
+            y, ok = pseudo_inverse_apply(J_C, x, damped, policy.threshold)
+            assert ok
+            np.testing.assert_array_less(np.abs(y - P @ x), 1e-13 * (np.abs(P) @ np.abs(x)) + 1e-300)
     assert not svd_gains_apply(np.zeros((9, 6)), np.ones(9), damped, policy.threshold)[-1]  # no direction
+    assert not pseudo_inverse_apply(np.zeros((6, 6)), np.ones(6), damped, policy.threshold)[-1]
 
 
 def test_filter_step_equals_the_stacked_product():

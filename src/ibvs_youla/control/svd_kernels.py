@@ -1,19 +1,24 @@
-"""Compiled SVD gains and the product P e of the adaptive outer loop.
+"""Compiled SVD gains and pseudo-inverse products: the outer loop's P e, the arm's J_C^+ [v; w].
 
-:func:`svd_gains_apply` is the Numba-compiled twin (:func:`ibvs_youla._jit.jit`) of the hot path
-of ``OuterLoopController.advance`` (:mod:`ibvs_youla.control.singular_values`): J = U Sigma V^T
-(LAPACK ``dgesdd``, :func:`ibvs_youla._linalg.gesdd`, the reference's call bit for bit), the
-bounded inverse gains g(sigma_i) of ERRATA 7 (``SingularValuePolicy._gains``) and
-P e = V (g * (U^T e)), the input of the outer loop's filter (Eq. (57)-(61)).
+Numba-compiled twins (:func:`ibvs_youla._jit.jit`) of two hot paths through
+:class:`~ibvs_youla.control.singular_values.SingularValuePolicy`, each a factorization J = U Sigma
+V^T (LAPACK ``dgesdd``, :func:`ibvs_youla._linalg.gesdd`, the reference's call bit for bit) and
+the bounded inverse gains g(sigma_i) of ERRATA 7 (``SingularValuePolicy._gains``):
+
+* :func:`svd_gains_apply`: P e = V (g * (U^T e)), the input of the outer loop's filter
+  (Eq. (57)-(61), ``OuterLoopController.advance``), at every frame of the paper's controller;
+* :func:`pseudo_inverse_apply`: (V diag(g) U^T) x, the pseudo-inverse formed then applied
+  (``policy.pseudo_inverse(J_C) @ twist``), at every joint tick of a twist controller on an arm
+  (``TwistToJointVelocity``).
 
 The gains are those of ``SingularValuePolicy`` with ``damped`` True (damped least squares,
 lambda = threshold sigma_max) or False (truncation below threshold sigma_max); singular values
 under the numerical rank tolerance max(m, n) eps sigma_max get 0. It returns ``ok = False`` when
 the reference would not give a plain result (LAPACK failed, a non-finite entry, every singular
 value zero); the caller then runs the reference, which raises or returns what it returns. The
-two products are summed in loops, not by BLAS as in the reference: equal to a few ulps, which
-the paper controller's regression guard (1e-8) allows. Unvalidated; pinned to the reference by
-``tests/test_compiled_kernels.py``.
+products are summed in loops, not by BLAS as in the reference: equal to a few ulps (the tests
+state the bound), which the paper controller's regression guard (1e-8) allows. Unvalidated;
+pinned to the references by ``tests/test_compiled_kernels.py``.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ import numpy as np
 from .._jit import jit
 from .._linalg import gesdd
 
-__all__ = ["svd_gains_apply"]
+__all__ = ["pseudo_inverse_apply", "svd_gains_apply"]
 
 _EPS = float(np.finfo(float).eps)
 
@@ -71,3 +76,24 @@ def svd_gains_apply(
             acc += Vt[i, j] * w[i]
         Pe[j] = acc
     return Pe, U, s, g, Vt, ok
+
+
+@jit
+def pseudo_inverse_apply(
+    J: np.ndarray, x: np.ndarray, damped: bool, threshold: float
+) -> tuple[np.ndarray, bool]:
+    """((V diag(g) U^T) x (n,), ok) for J (m, n) and x (m,): the pseudo-inverse formed, then applied."""
+    U, s, Vt, info = gesdd(J)
+    m, k, n = J.shape[0], s.shape[0], J.shape[1]
+    g, ok = _gains(s, max(m, n), damped, threshold)
+    ok = ok and info == 0
+    y = np.zeros(n)
+    for j in range(n):
+        acc = 0.0
+        for r in range(m):
+            p = 0.0
+            for i in range(k):  # P[j, r] = sum_i V[j, i] g_i U[r, i]
+                p += Vt[i, j] * g[i] * U[r, i]
+            acc += p * x[r]
+        y[j] = acc
+    return y, ok

@@ -217,3 +217,25 @@ def test_reports_keep_their_history(tmp_path):
         0.4,
         0.3,
     ]
+
+
+@pytest.mark.slow
+def test_run_all_regenerates_the_readme_blocks_from_the_reports(tmp_path):
+    """run_all.py runs the chosen benchmarks into the reports folder (their histories grow), then
+    rewrites each README block between its markers from the reports, leaving the prose alone."""
+    readme = tmp_path / "README.md"
+    readme.write_text(
+        "Prose before.\n<!-- figures:outer_loop -->\nold figures\n<!-- /figures:outer_loop -->\n"
+        "Prose between.\n<!-- figures:history -->\nold\n<!-- /figures:history -->\nProse after.\n"
+    )
+    reports = tmp_path / "reports"
+    argv = ["--quick", "--only", "outer_loop", "--reports", str(reports), "--readme", str(readme)]
+    assert load("run_all").main(argv) == 0
+    assert load("run_all").main(argv) == 0
+    saved = json.loads((reports / "outer_loop.json").read_text())
+    assert len(saved["history"]) == 2
+    text = readme.read_text()
+    assert text.startswith("Prose before.\n<!-- figures:outer_loop -->\n| |")
+    assert "old figures" not in text and "Prose between." in text and text.endswith("Prose after.\n")
+    assert f"**{saved['ratio_to_floor']:,.2f}**" in text  # the ratio of the latest report
+    assert text.count("| 20") >= 2  # two rows of history, one per run (dates of this century)

@@ -356,3 +356,15 @@ def test_a_kernel_compiles_in_memory_when_no_cache_directory_is_writable(tmp_pat
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
     assert out.returncode == 0, out.stderr[-3000:]
     assert out.stdout.split() == ["42.0", "CPUDispatcher", "NullCache"]
+
+
+def test_filter_step_difference_is_the_step_of_the_difference():
+    """step_difference(r, y) == step(r - y), bit for bit, and the state advances alike."""
+    a = DiscreteFilter.from_tf(OuterLoopDesign().filter_tf(), 1e-3, 6)
+    b = DiscreteFilter.from_tf(OuterLoopDesign().filter_tf(), 1e-3, 6)
+    rng = np.random.default_rng(SEED + 9)
+    for _ in range(300):
+        r, y = rng.normal(size=6), rng.normal(size=6)
+        np.testing.assert_array_equal(a.step_difference(r, y), b.step(r - y))
+        np.testing.assert_array_equal(a.state, b.state)
+    np.testing.assert_array_equal(a.step_difference([1.0] * 6, np.zeros(6)), b.step(np.ones(6)))  # a list

@@ -33,7 +33,7 @@ from .._jit import jit
 from .._validation import as_array, one_of, positive
 from ..exceptions import InvalidArrayError, InvalidParameterError
 
-__all__ = ["METHODS", "DiscreteFilter", "filter_step"]
+__all__ = ["METHODS", "DiscreteFilter", "filter_step", "filter_step_difference"]
 
 METHODS = ("zoh", "foh", "tustin")
 _SCIPY_METHOD = {"zoh": "zoh", "foh": "foh", "tustin": "bilinear"}
@@ -50,6 +50,24 @@ def filter_step(M: np.ndarray, z: np.ndarray, z_next: np.ndarray, u: np.ndarray)
     rows, m = z.shape
     for j in range(m):
         z[rows - 1, j] = u[j]
+    return _product(M, z, z_next)
+
+
+@jit
+def filter_step_difference(
+    M: np.ndarray, z: np.ndarray, z_next: np.ndarray, r: np.ndarray, y: np.ndarray
+) -> np.ndarray:
+    """:func:`filter_step` with the input u = r - y formed inside (the error of a feedback loop)."""
+    rows, m = z.shape
+    for j in range(m):
+        z[rows - 1, j] = r[j] - y[j]
+    return _product(M, z, z_next)
+
+
+@jit
+def _product(M: np.ndarray, z: np.ndarray, z_next: np.ndarray) -> np.ndarray:
+    """z_next = M z; returns a copy of its last row."""
+    rows, m = z.shape
     for a in range(rows):
         for j in range(m):
             acc = 0.0
@@ -206,6 +224,20 @@ class DiscreteFilter:
         y = filter_step(self._M, z, z_next, u)  # z[-1] = u; z_next = [A x + B u; C x + D u]: compiled
         self._z, self._z_next = z_next, z
         return y
+
+    def step_difference(self, r: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """:meth:`step` of u = r - y (n-channel arrays), without forming r - y first.
+
+        The error of a feedback loop at every tick (the inner loop, Eq. (41)). ``y`` must be a
+        float (m,) array (e.g. the encoders); an ``r`` of another shape goes through :meth:`step`,
+        which checks it.
+        """
+        if getattr(r, "shape", None) != self._shape:
+            return self.step(np.asarray(r) - y)
+        z, z_next = self._z, self._z_next
+        out = filter_step_difference(self._M, z, z_next, r, y)
+        self._z, self._z_next = z_next, z
+        return out  # type: ignore[no-any-return]
 
     # ------------------------------------------------------------------ resets
     def reset(self, state: Any = None) -> None:

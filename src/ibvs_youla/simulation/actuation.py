@@ -111,12 +111,12 @@ class InnerLoopActuator:
 
     def __init__(self, arm: Any, tau_in: float, dt: float) -> None:
         self._inner = InnerLoopDesign(tau_in).discrete_controller(dt, arm.nq)
-        self._step, self._rnea = self._inner.step, arm.rnea  # bound once: called at every tick
+        self._step, self._rnea = self._inner.step_difference, arm.rnea  # bound once: called at every tick
 
     def __call__(self, q_ref: np.ndarray, reading: JointReading) -> np.ndarray:
         """Tau = M(q) G_C(z)[q_ref - q] + h(q, dq) (n,) [N m], from one RNEA pass."""
         q, dq = reading.q, reading.dq
-        return self._rnea(q, dq, self._step(q_ref - q))
+        return self._rnea(q, dq, self._step(q_ref, q))
 
 
 def actuation_chain(

@@ -167,7 +167,7 @@ class ClassicalIBVS(Controller):
         self._feature_target = target
         self._rows = rows
         # the monocular pose (depths of L), its camera and markers checked once
-        self._pose = CameraPoseEstimator(task.camera, task.markers_O) if rows == 2 else None
+        self.pose_estimator = CameraPoseEstimator(task.camera, task.markers_O) if rows == 2 else None
         self._L_desired = self._L_desired_pinv = None
         if self.interaction != "current":
             P_C_target = transform_points(inverse_pose(task.T_O_C_target), task.markers_O)
@@ -194,7 +194,7 @@ class ClassicalIBVS(Controller):
 
     def interaction_matrix(self, features: np.ndarray) -> np.ndarray:
         """L(s, Z) (m, 6) at the given features, depths from the controller's model (class docstring)."""
-        return current_interaction_matrix(self.task, features, self._rows, self._pose)
+        return current_interaction_matrix(self.task, features, self._rows, self.pose_estimator)
 
     def pinv(self, L: np.ndarray) -> np.ndarray:
         """L^+ (6, m) through the SVD, singular values <= 1e-6 sigma_max dropped (class docstring)."""

@@ -238,7 +238,7 @@ class MpcIBVS(Controller):
         lower = np.tril(np.ones((N, N)))  # row j-1: V_j = sum_{i<j} v_i
         self._rows, self._target, self._F, self._T = rows, target, F, T
         # the monocular pose (depths of L), its camera and markers checked once
-        self._pose = CameraPoseEstimator(camera, task.markers_O) if rows == 2 else None
+        self.pose_estimator = CameraPoseEstimator(camera, task.markers_O) if rows == 2 else None
         self._A_img, self._b_img = A_img, b_img / F  # A_img (s / F) <= b_img / F, on normalized features
         self._lower = lower
         self._W = lower.T.dot(lower)  # W[i, k] = N - max(i, k)
@@ -250,7 +250,7 @@ class MpcIBVS(Controller):
 
     def interaction_matrix(self, features: np.ndarray) -> np.ndarray:
         """L(s, Z) (m, 6) at the measured features, depths from the controller's model (module docstring)."""
-        return current_interaction_matrix(self.task, features, self._rows, self._pose)
+        return current_interaction_matrix(self.task, features, self._rows, self.pose_estimator)
 
     def qp(self, features: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(P, q, G, h) of min 1/2 x^T P x + q^T x s.t. G x <= h over x = [v_0; ..; v_{N-1}] (6N,).

@@ -143,13 +143,14 @@ class PBVS(Controller):
         super().reset(task)
         self._T_target_O = inverse_pose(np.asarray(task.T_O_C_target, dtype=float))  # T_c*_O
         self._options = pose_options(task)
-        self._pose = CameraPoseEstimator(task.camera, task.markers_O, **self._options)  # checked once
+        # the camera pose of each frame (estimate_camera_pose, its arguments checked once)
+        self.pose_estimator = CameraPoseEstimator(task.camera, task.markers_O, **self._options)
         self._error = np.zeros(6)
         self._twist = np.zeros(6)
 
     def update(self, frame: CameraFrame, reading: JointReading | None) -> None:
         """Estimate the pose from the frame, e = (c*t_c, theta u), twist of (PBVS)."""
-        T_O_C = self._pose(frame.features)  # estimate_camera_pose(camera, features, markers, **options)
+        T_O_C = self.pose_estimator(frame.features)
         T_target_C = self._T_target_O @ T_O_C  # c*T_c
         R, t = T_target_C[:3, :3], T_target_C[:3, 3]
         tu = theta_u(R)

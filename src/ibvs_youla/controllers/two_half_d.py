@@ -263,7 +263,8 @@ class TwoHalfD(Controller):
         self._m_ref_target = P_target / P_target[2]  # [x*, y*, 1]
         self._F = float(task.camera.focal_length)
         self._options = pose_options(task)
-        self._pose = CameraPoseEstimator(task.camera, task.markers_O, **self._options)  # checked once
+        # the camera pose of each frame (estimate_camera_pose, its arguments checked once)
+        self.pose_estimator = CameraPoseEstimator(task.camera, task.markers_O, **self._options)
         if self.rotation_from == "homography":
             self._m_target = np.asarray(task.feature_target, dtype=float).reshape(n, 2) / self._F
             _, _, Vt = svd(markers_O - markers_O.mean(axis=0))
@@ -307,7 +308,7 @@ class TwoHalfD(Controller):
                 rho = H[2] @ np.array([*self._m_target[i], 1.0])
                 x, y = m[i]
         else:
-            T_O_C = self._pose(features)  # estimate_camera_pose(camera, features, markers, **options)
+            T_O_C = self.pose_estimator(features)
             R_target_C = (self._T_target_O @ T_O_C)[:3, :3]
             X, Y, Z = (self._reference_O - T_O_C[:3, 3]) @ T_O_C[:3, :3]  # reference in {c}
             rho = Z / self._Z_target

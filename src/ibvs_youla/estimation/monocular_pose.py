@@ -119,7 +119,9 @@ class CameraPoseEstimator:
     the same pose by the same computation, without re-checking the points, the camera and the
     options at every call (a controller's pose at every frame): the triangulated points fitted
     to the points' centred coordinates, computed once, or OpenCV's PnP on the normalized points.
-    ``features`` must be finite (as a sensor's are); only their shape is checked.
+    ``features`` must be finite (as a sensor's are); only their shape is checked. Called again
+    with the same features (equal values), it returns the pose it found (a copy) without
+    solving again: two laws sharing one estimator (the hybrid law) estimate once per frame.
 
     Args:
         camera: A ``StereoCamera`` or a ``PinholeCamera``.
@@ -161,6 +163,7 @@ class CameraPoseEstimator:
         else:
             raise InvalidParameterError("camera", type(camera).__name__, "a StereoCamera or a PinholeCamera")
         self._n = n
+        self._last: tuple[bytes, np.ndarray] | None = None  # features of the last call, its pose
 
     def __call__(self, features: np.ndarray) -> np.ndarray:
         """T_ref_C (4, 4) from the camera's features (3n,) or (n, 3) stereo, (2n,) or (n, 2) monocular."""
@@ -171,9 +174,15 @@ class CameraPoseEstimator:
                 f"an array of shape {np.shape(features)}",
                 f"shape {self._shapes[0]} or {self._shapes[1]} for {self._n} points",
             )
+        key = features.tobytes()
+        if self._last is not None and self._last[0] == key:
+            return self._last[1].copy()
         n = self._n
         if isinstance(self.camera, StereoCamera):
             P_C = triangulate_points(self.camera, features.reshape(n, 3), self._allow_behind)
-            return kabsch_centred(P_C, self._centred, self._mean)
-        normalized = np.ascontiguousarray(features.reshape(n, 2) / self.camera.focal_length)
-        return _solve_pnp(self._P, normalized, self._method, self._flag, _EYE3)
+            T = kabsch_centred(P_C, self._centred, self._mean)
+        else:
+            normalized = np.ascontiguousarray(features.reshape(n, 2) / self.camera.focal_length)
+            T = _solve_pnp(self._P, normalized, self._method, self._flag, _EYE3)
+        self._last = (key, T.copy())
+        return T

@@ -36,7 +36,13 @@ from ibvs_youla.model.camera import (
     triangulate_points,
     visible_points,
 )
-from ibvs_youla.model.camera_kernels import camera_parameters, image_jacobian, measure_features, triangulate
+from ibvs_youla.model.camera_kernels import (
+    camera_parameters,
+    image_jacobian,
+    interaction_matrix,
+    measure_features,
+    triangulate,
+)
 from ibvs_youla.model.ik import nearest_branch
 from ibvs_youla.model.ik_kernels import ik_parameter_array, nearest_branch_compiled
 from ibvs_youla.simulation.integrators import ArmRk4, rk4_arm_step
@@ -368,3 +374,56 @@ def test_filter_step_difference_is_the_step_of_the_difference():
         np.testing.assert_array_equal(a.step_difference(r, y), b.step(r - y))
         np.testing.assert_array_equal(a.state, b.state)
     np.testing.assert_array_equal(a.step_difference([1.0] * 6, np.zeros(6)), b.step(np.ones(6)))  # a list
+
+
+@pytest.mark.parametrize("name", ["zed2-paper", "pinhole", "normalized"])
+def test_interaction_matrix_equals_points_interaction_matrix_bit_for_bit(name):
+    camera = CAMERAS[name]
+    params, lens_x = camera_parameters(camera)
+    rng = np.random.default_rng(SEED + 10)
+    for i in range(2000):
+        P_C = rng.normal(0.0, 1.0, (3 + i % 3, 3))
+        allow_behind = bool(i % 2)
+        try:
+            expected = points_interaction_matrix(camera, P_C, allow_behind)
+        except PointBehindCameraError:
+            assert interaction_matrix(P_C, params, lens_x, allow_behind)[1] >= 0
+            continue
+        L, bad = interaction_matrix(P_C, params, lens_x, allow_behind)
+        assert bad == -1
+        np.testing.assert_array_equal(L, expected)
+
+
+def test_current_interaction_equals_its_reference():
+    """CurrentInteraction(task, rows)(features) == current_interaction_matrix(task, features, rows)."""
+    from ibvs_youla.analysis import suites
+    from ibvs_youla.controllers.base import ServoTask
+    from ibvs_youla.controllers.image_points import (
+        CurrentInteraction,
+        current_interaction_matrix,
+        feature_rows,
+    )
+    from ibvs_youla.simulation.sensor import MarkerSensor
+
+    rng = np.random.default_rng(SEED + 11)
+    square = suites.SQUARE_O
+    for camera, P_O, allow_behind in (
+        (PinholeCamera.normalized(), square, False),
+        (StereoCamera.zed2(), square + np.array([0.0, 0.0, 2.0]), True),
+    ):
+        task = ServoTask(
+            camera,
+            P_O,
+            np.zeros(P_O.size // 3 * (3 if isinstance(camera, StereoCamera) else 2)),
+            np.eye(4),
+            0.04,
+            0.04,
+            virtual_points=allow_behind,
+        )
+        rows = feature_rows(task, "test")
+        fast, sensor = CurrentInteraction(task, rows), MarkerSensor(camera, P_O, virtual_points=allow_behind)
+        for _ in range(50):
+            T = np.eye(4)
+            T[:3, 3] = rng.normal(0.0, 0.05, 3) + ([0.0, 0.0, -0.75] if rows == 2 else 0.0)
+            features = sensor.features_at(T)
+            np.testing.assert_array_equal(fast(features), current_interaction_matrix(task, features, rows))

@@ -37,11 +37,10 @@ import numpy as np
 from .._geometry import inverse_pose, transform_points
 from .._validation import non_negative, one_of, positive
 from ..control.singular_values import SingularValuePolicy
-from ..estimation.monocular_pose import CameraPoseEstimator
 from ..exceptions import InvalidParameterError
 from ..model.camera import points_interaction_matrix
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
-from .image_points import current_interaction_matrix, feature_rows
+from .image_points import CurrentInteraction, feature_rows
 
 __all__ = ["INTERACTIONS", "PINV_THRESHOLD", "REGISTRATIONS", "AdaptiveGain", "ClassicalIBVS"]
 
@@ -166,8 +165,9 @@ class ClassicalIBVS(Controller):
         super().reset(task)
         self._feature_target = target
         self._rows = rows
-        # the monocular pose (depths of L), its camera and markers checked once
-        self.pose_estimator = CameraPoseEstimator(task.camera, task.markers_O) if rows == 2 else None
+        self._interaction = CurrentInteraction(task, rows)  # L(s, Z), what does not change made once
+        # monocular: the pose that gives L its depths (CameraPoseEstimator; None for stereo)
+        self.pose_estimator = self._interaction.pose_estimator
         self._L_desired = self._L_desired_pinv = None
         if self.interaction != "current":
             P_C_target = transform_points(inverse_pose(task.T_O_C_target), task.markers_O)
@@ -194,7 +194,7 @@ class ClassicalIBVS(Controller):
 
     def interaction_matrix(self, features: np.ndarray) -> np.ndarray:
         """L(s, Z) (m, 6) at the given features, depths from the controller's model (class docstring)."""
-        return current_interaction_matrix(self.task, features, self._rows, self.pose_estimator)
+        return self._interaction(features)
 
     def pinv(self, L: np.ndarray) -> np.ndarray:
         """L^+ (6, m) through the SVD, singular values <= 1e-6 sigma_max dropped (class docstring)."""

@@ -78,11 +78,10 @@ import numpy as np
 import qpsolvers
 
 from .._validation import non_negative, one_of, positive
-from ..estimation.monocular_pose import CameraPoseEstimator
 from ..exceptions import InvalidParameterError
 from ..model.camera import StereoCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
-from .image_points import current_interaction_matrix, feature_rows
+from .image_points import CurrentInteraction, feature_rows
 
 __all__ = ["FALLBACKS", "REGISTRATIONS", "MpcIBVS"]
 
@@ -237,8 +236,7 @@ class MpcIBVS(Controller):
         N, F = self.horizon, camera.focal_length
         lower = np.tril(np.ones((N, N)))  # row j-1: V_j = sum_{i<j} v_i
         self._rows, self._target, self._F, self._T = rows, target, F, T
-        # the monocular pose (depths of L), its camera and markers checked once
-        self.pose_estimator = CameraPoseEstimator(camera, task.markers_O) if rows == 2 else None
+        self._interaction = CurrentInteraction(task, rows)  # L(s, Z), what does not change made once
         self._A_img, self._b_img = A_img, b_img / F  # A_img (s / F) <= b_img / F, on normalized features
         self._lower = lower
         self._W = lower.T.dot(lower)  # W[i, k] = N - max(i, k)
@@ -250,7 +248,7 @@ class MpcIBVS(Controller):
 
     def interaction_matrix(self, features: np.ndarray) -> np.ndarray:
         """L(s, Z) (m, 6) at the measured features, depths from the controller's model (module docstring)."""
-        return current_interaction_matrix(self.task, features, self._rows, self.pose_estimator)
+        return self._interaction(features)
 
     def qp(self, features: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(P, q, G, h) of min 1/2 x^T P x + q^T x s.t. G x <= h over x = [v_0; ..; v_{N-1}] (6N,).

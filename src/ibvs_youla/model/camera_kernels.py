@@ -7,8 +7,10 @@ a camera frame costs one call instead of a dozen numpy calls and per-point loops
 * :func:`measure_features`: the features (Eq. (9)-(11), ERRATA 12) and the visibility flags of
   points P_C in the camera frame (reference: ``project_points`` and ``visible_points``, the same
   operations in the same order: the same floats);
-* :func:`image_jacobian`: P_C, then L(P_C) J_C, the 9x6 image Jacobian of Eq. (51)
-  (reference: ``points_interaction_matrix(...).dot(J_C)``);
+* :func:`interaction_matrix`: L(P_C), the stacked point interaction matrices (reference:
+  ``points_interaction_matrix``, the same floats), and :func:`image_jacobian`: P_C, then
+  L(P_C) J_C, the 9x6 image Jacobian of Eq. (51) (reference: ``points_interaction_matrix(...)
+  .dot(J_C)``, summed in another order than BLAS);
 * :func:`triangulate`: the inverse stereo map of Eq. (C6)-(C8) (reference:
   ``triangulate_points``).
 
@@ -27,7 +29,7 @@ import numpy as np
 from .._jit import jit
 from .camera import MAX_ABS_DEPTH, MIN_ABS_DEPTH, StereoCamera
 
-__all__ = ["camera_parameters", "image_jacobian", "measure_features", "triangulate"]
+__all__ = ["camera_parameters", "image_jacobian", "interaction_matrix", "measure_features", "triangulate"]
 
 # Layout of the parameter vector of camera_parameters
 _F, _PITCH, _SKEW, _U0, _V0, _U_MAX, _V_MAX, _Z_MIN, _Z_MAX, _BOUNDED, _BASELINE, _D_MIN = range(12)
@@ -120,7 +122,27 @@ def image_jacobian(
     allow_behind: bool,
 ) -> tuple[np.ndarray, int]:
     """(L(P_C) J_C ((k + 1) n, 6), first point of bad depth or -1) at camera pose T_O_C (Eq. (51))."""
-    P = _points_in_camera(T_O_C, markers_O)
+    L, bad = interaction_matrix(_points_in_camera(T_O_C, markers_O), params, lens_x, allow_behind)
+    J = np.empty((L.shape[0], J_C.shape[1]))
+    if bad >= 0:
+        return J, bad
+    for a in range(L.shape[0]):
+        for b in range(J_C.shape[1]):
+            s = 0.0
+            for c in range(6):
+                s += L[a, c] * J_C[c, b]
+            J[a, b] = s
+    return J, -1
+
+
+@jit
+def interaction_matrix(
+    P: np.ndarray, params: np.ndarray, lens_x: np.ndarray, allow_behind: bool
+) -> tuple[np.ndarray, int]:
+    """(L(P_C) ((k + 1) n, 6), first point of bad depth or -1) of points P (n, 3) in {C}.
+
+    ``points_interaction_matrix`` in one call: the same operations in the same order.
+    """
     n, k = P.shape[0], lens_x.shape[0]
     F = params[_F]
     L = np.zeros((n * (k + 1), 6))
@@ -144,14 +166,7 @@ def image_jacobian(
         L[r + k, 3] = F + v * Y * iz
         L[r + k, 4] = -v * X * iz
         L[r + k, 5] = -Fiz * X
-    J = np.empty((L.shape[0], J_C.shape[1]))
-    for a in range(L.shape[0]):
-        for b in range(J_C.shape[1]):
-            s = 0.0
-            for c in range(6):
-                s += L[a, c] * J_C[c, b]
-            J[a, b] = s
-    return J, -1
+    return L, -1
 
 
 @jit

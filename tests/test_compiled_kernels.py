@@ -244,8 +244,8 @@ def test_filter_step_equals_the_stacked_product():
     for _ in range(1000):
         z, u = rng.normal(size=(A.shape[0] + 1, 6)), rng.normal(size=6)
         expected = M @ np.vstack([z[:-1], u])
-        z_next = np.empty_like(z)
-        y = filter_step(M, z, z_next, u)
+        z_next, y = np.empty_like(z), np.empty(6)
+        filter_step(M, z, z_next, u, y)
         terms = np.abs(M) @ np.abs(np.vstack([z[:-1], u]))
         np.testing.assert_array_less(np.abs(z_next - expected), 1e-14 * terms + 1e-300)
         np.testing.assert_array_equal(y, z_next[-1])
@@ -427,3 +427,14 @@ def test_current_interaction_equals_its_reference():
             T[:3, 3] = rng.normal(0.0, 0.05, 3) + ([0.0, 0.0, -0.75] if rows == 2 else 0.0)
             features = sensor.features_at(T)
             np.testing.assert_array_equal(fast(features), current_interaction_matrix(task, features, rows))
+
+
+def test_add_product_is_numpy_a_plus_b_times_c():
+    from ibvs_youla._linalg import add_product
+
+    rng = np.random.default_rng(SEED + 12)
+    for _ in range(500):
+        a, b, c = rng.normal(size=(3, 6)) * rng.choice([1e-8, 1.0, 1e8], (3, 6))
+        expected = a + b * c
+        add_product(a, b, c)
+        np.testing.assert_array_equal(a, expected)

@@ -119,3 +119,10 @@ else:  # Numba missing or disabled: the f2py wrapper, the same LAPACK routine
     def gesdd(A: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
         """(U, s, Vt, info) of LAPACK ``dgesdd`` of A (the compiled version's fallback)."""
         return _gesdd(A, 1, 0)  # type: ignore[no-any-return]
+
+
+@jit
+def add_product(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> None:
+    """In place, a += b * c element by element (compiled): the floats of numpy's ``a + b * c``."""
+    for i in range(a.shape[0]):
+        a[i] += b[i] * c[i]

@@ -40,8 +40,8 @@ _SCIPY_METHOD = {"zoh": "zoh", "foh": "foh", "tustin": "bilinear"}
 
 
 @jit
-def filter_step(M: np.ndarray, z: np.ndarray, z_next: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """z[-1] = u, z_next = M z; returns a copy of z_next[-1], the output y (compiled).
+def filter_step(M: np.ndarray, z: np.ndarray, z_next: np.ndarray, u: np.ndarray, y: np.ndarray) -> None:
+    """z[-1] = u, z_next = M z, y = z_next[-1], the output (compiled; y written, not returned).
 
     The kernel of :meth:`DiscreteFilter.step`: M = [[A, B], [C, D]] (n + 1, n + 1), z = [x; u]
     (n + 1, m) and z_next (n + 1, m), so z_next = [A x + B u; C x + D u]. Unvalidated; pinned to
@@ -50,23 +50,23 @@ def filter_step(M: np.ndarray, z: np.ndarray, z_next: np.ndarray, u: np.ndarray)
     rows, m = z.shape
     for j in range(m):
         z[rows - 1, j] = u[j]
-    return _product(M, z, z_next)
+    _product(M, z, z_next, y)
 
 
 @jit
 def filter_step_difference(
-    M: np.ndarray, z: np.ndarray, z_next: np.ndarray, r: np.ndarray, y: np.ndarray
-) -> np.ndarray:
-    """:func:`filter_step` with the input u = r - y formed inside (the error of a feedback loop)."""
+    M: np.ndarray, z: np.ndarray, z_next: np.ndarray, r: np.ndarray, y_in: np.ndarray, y: np.ndarray
+) -> None:
+    """:func:`filter_step` with the input u = r - y_in formed inside (the error of a feedback loop)."""
     rows, m = z.shape
     for j in range(m):
-        z[rows - 1, j] = r[j] - y[j]
-    return _product(M, z, z_next)
+        z[rows - 1, j] = r[j] - y_in[j]
+    _product(M, z, z_next, y)
 
 
 @jit
-def _product(M: np.ndarray, z: np.ndarray, z_next: np.ndarray) -> np.ndarray:
-    """z_next = M z; returns a copy of its last row."""
+def _product(M: np.ndarray, z: np.ndarray, z_next: np.ndarray, y: np.ndarray) -> None:
+    """z_next = M z, and y = its last row."""
     rows, m = z.shape
     for a in range(rows):
         for j in range(m):
@@ -74,7 +74,8 @@ def _product(M: np.ndarray, z: np.ndarray, z_next: np.ndarray) -> np.ndarray:
             for b in range(rows):
                 acc += M[a, b] * z[b, j]
             z_next[a, j] = acc
-    return z_next[rows - 1].copy()
+    for j in range(m):
+        y[j] = z_next[rows - 1, j]
 
 
 class DiscreteFilter:
@@ -221,7 +222,8 @@ class DiscreteFilter:
             if u.shape != self._shape:
                 raise InvalidArrayError("u", f"an array of shape {u.shape}", f"shape {self._shape}")
         z, z_next = self._z, self._z_next
-        y = filter_step(self._M, z, z_next, u)  # z[-1] = u; z_next = [A x + B u; C x + D u]: compiled
+        y = np.empty(self._shape[0])  # a new array (cheaper than one returned by compiled code)
+        filter_step(self._M, z, z_next, u, y)  # z[-1] = u; z_next = [A x + B u; C x + D u]: compiled
         self._z, self._z_next = z_next, z
         return y
 
@@ -235,9 +237,10 @@ class DiscreteFilter:
         if getattr(r, "shape", None) != self._shape:
             return self.step(np.asarray(r) - y)
         z, z_next = self._z, self._z_next
-        out = filter_step_difference(self._M, z, z_next, r, y)
+        out = np.empty(self._shape[0])
+        filter_step_difference(self._M, z, z_next, r, y, out)
         self._z, self._z_next = z_next, z
-        return out  # type: ignore[no-any-return]
+        return out
 
     # ------------------------------------------------------------------ resets
     def reset(self, state: Any = None) -> None:

@@ -36,6 +36,7 @@ import numpy as np
 import pinocchio as pin
 
 from .._geometry import pose_error_mm_deg
+from .._linalg import add_product
 from .._validation import as_array, as_pose, non_negative, positive
 from ..exceptions import InvalidArrayError, ModelLoadError, UnreachablePoseError
 from ._resources import check_chain, frame_id, load_urdf_model, urdf_path
@@ -384,7 +385,9 @@ class Arm:
         `inverse_dynamics` (and of Eq. (33), tau = M(q) v + h(q, dq)): does not validate its
         arguments, which must be finite float64 (6,) arrays (q [rad], dq [rad/s], ddq [rad/s^2]).
         """
-        return pin.rnea(self.model, self._thread_data.data, q, dq, ddq) + self.damping * dq
+        tau = pin.rnea(self.model, self._thread_data.data, q, dq, ddq)  # a new array
+        add_product(tau, self.damping, dq)  # + damping * dq, in one compiled call
+        return tau  # type: ignore[no-any-return]
 
     def kinetic_energy(self, q: Any, dq: Any) -> float:
         """0.5 dq^T M(q) dq [J], rotor (armature) energy included."""

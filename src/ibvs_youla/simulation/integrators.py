@@ -156,18 +156,17 @@ def rk4_stage(W: np.ndarray, ddq: np.ndarray, i: int, dt: float) -> None:
 
 
 @jit
-def rk4_end(W: np.ndarray, ddq: np.ndarray, dt: float) -> tuple[np.ndarray, bool]:
-    """Store k4's accelerations; return x + dt (k1 + 2 k2 + 2 k3 + k4) / 6 and whether it is within bounds."""
+def rk4_end(W: np.ndarray, ddq: np.ndarray, dt: float, x: np.ndarray) -> bool:
+    """Store k4; write x = x0 + dt (k1 + 2 k2 + 2 k3 + k4) / 6 and return whether it is within bounds."""
     n = ddq.shape[0]
     for j in range(n):
         W[_K + 3, n + j] = ddq[j]
     w0, w1 = dt * (1.0 / 6.0), dt * (2.0 / 6.0)  # dt * _RK4_WEIGHTS
-    x = np.empty(2 * n)
     inside = True
     for j in range(2 * n):
         x[j] = W[_X, j] + (w0 * W[_K, j] + w1 * W[_K + 1, j] + w1 * W[_K + 2, j] + w0 * W[_K + 3, j])
         inside = inside and W[_LOW, j] <= x[j] <= W[_HIGH, j]  # NaN is outside
-    return x, inside
+    return inside
 
 
 class ArmRk4:
@@ -198,4 +197,5 @@ class ArmRk4:
         rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world), 0, dt)
         rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world), 1, dt)
         rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world), 2, dt)
-        return rk4_end(W, pin.aba(model, data, q, dq, tau_stage, world), dt)  # type: ignore[no-any-return]
+        x_next = np.empty(x.shape[0])  # a new array (cheaper than one returned by compiled code)
+        return x_next, rk4_end(W, pin.aba(model, data, q, dq, tau_stage, world), dt, x_next)

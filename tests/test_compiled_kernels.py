@@ -209,6 +209,17 @@ def test_gesdd_is_the_f2py_dgesdd_bit_for_bit(shape):
     assert gesdd(A)[3] == -1000  # never handed to LAPACK
 
 
+def literal_gains(policy, sigma, size):
+    """ERRATA 7's bounded inverse gains, as SingularValuePolicy documents them."""
+    smax = sigma[0]
+    zero = size * EPS * smax
+    if policy.kind == "damped":
+        lam2 = (policy.threshold * smax) ** 2
+        return np.array([x / (x * x + lam2) if x > zero else 0.0 for x in sigma])
+    cut = policy.threshold * smax
+    return np.array([1.0 / x if x > zero and x > cut else 0.0 for x in sigma])
+
+
 @pytest.mark.parametrize("policy", [SingularValuePolicy(), SingularValuePolicy("truncate", 1e-2)])
 def test_svd_gains_apply_and_pseudo_inverse_apply_equal_the_policy(policy):
     """P e and J^+ x to 1e-13 of the terms |V| |g| |U^T| |e| (sums in another order); U, s, g, Vt
@@ -219,7 +230,10 @@ def test_svd_gains_apply_and_pseudo_inverse_apply_equal_the_policy(policy):
         for _ in range(200):
             J = rng.normal(size=(9, rank)) @ rng.normal(size=(rank, 6))
             e = rng.normal(size=9)
-            U, s, g, Vt = policy.svd_gains(J)
+            U, s, Vt, _ = lapack.dgesdd(J, 1, 0)  # the plain reference: the f2py LAPACK call
+            g = literal_gains(policy, s.tolist(), 9)
+            for got, expected in zip(policy.svd_gains(J), (U, s, g, Vt), strict=True):
+                np.testing.assert_array_equal(got, expected)  # the compiled svd_gains, bit for bit
             Pe, U2, s2, g2, Vt2, ok = svd_gains_apply(J, e, damped, policy.threshold)
             assert ok
             for got, expected in ((U2, U), (s2, s), (g2, g), (Vt2, Vt)):

@@ -5,6 +5,8 @@ Numba-compiled twins (:func:`ibvs_youla._jit.jit`) of two hot paths through
 V^T (LAPACK ``dgesdd``, :func:`ibvs_youla._linalg.gesdd`, the reference's call bit for bit) and
 the bounded inverse gains g(sigma_i) of ERRATA 7 (``SingularValuePolicy._gains``):
 
+* :func:`svd_gains`: the factorization and the gains alone (``SingularValuePolicy.svd_gains``,
+  the same floats);
 * :func:`svd_gains_apply`: P e = V (g * (U^T e)), the input of the outer loop's filter
   (Eq. (57)-(61), ``OuterLoopController.advance``), at every frame of the paper's controller;
 * :func:`pseudo_inverse_apply`: (V diag(g) U^T) x, the pseudo-inverse formed then applied
@@ -28,7 +30,7 @@ import numpy as np
 from .._jit import jit
 from .._linalg import gesdd
 
-__all__ = ["pseudo_inverse_apply", "svd_gains_apply"]
+__all__ = ["pseudo_inverse_apply", "svd_gains", "svd_gains_apply"]
 
 _EPS = float(np.finfo(float).eps)
 
@@ -52,6 +54,16 @@ def _gains(s: np.ndarray, size: int, damped: bool, threshold: float) -> tuple[np
             x = s[i]
             g[i] = 1.0 / x if x > zero and x > cut else 0.0
     return g, True
+
+
+@jit
+def svd_gains(
+    J: np.ndarray, damped: bool, threshold: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
+    """(U (m, k), sigma (k,), g (k,), Vt (k, n), ok) of J (m, n): the SVD and the bounded gains."""
+    U, s, Vt, info = gesdd(J)
+    g, ok = _gains(s, max(J.shape[0], J.shape[1]), damped, threshold)
+    return U, s, g, Vt, ok and info == 0
 
 
 @jit

@@ -70,7 +70,7 @@ class TwistToJointVelocity:
         the twist is a float (6,) array, else (or when the SVD fails) from the reference
         ``policy.pseudo_inverse(J_C) @ twist``.
         """
-        J_C = self._arm.camera_pose_and_jacobian(reading.q)[1]
+        J_C = self._arm.camera_jacobian_at(reading.q)
         if getattr(twist, "shape", None) == (6,) and twist.dtype == np.float64:
             dq_ref, ok = pseudo_inverse_apply(J_C, twist, self._damped, self._threshold)
             if ok:

@@ -7,8 +7,8 @@ Two stated campaigns (seed 0), each timed in this process without Dask (``serial
   ``ibvs-desired``, ``ibvs-mean``, ``pbvs``, ``2.5d``, ``hybrid``, ``mpc-ibvs``), the free camera,
   the normalized monocular camera at 25 Hz, 20 s per run, ``--cases`` 30 cases (210 runs);
 * ``arm``: the arm-physical family, every registered method (the paper's ``fb`` and ``ff+fb``
-  and the seven), the dynamic IRB 4600 (joint loop 1 kHz), the ZED 2 stereo camera at 100 Hz,
-  10 s per run, ``--arm-cases`` 3 cases (27 runs).
+  and the seven), the dynamic IRB 4600 (joint loop 1 kHz), the ZED 2 stereo camera at 100 Hz
+  (the library's default rates), 20 s per run, ``--arm-cases`` 3 cases (27 runs).
 
 What one timed campaign does, as a campaign's client would: ``client.map(run_spec, specs,
 pure=False)``, the rows taken as they complete (``distributed.as_completed``) and written in
@@ -24,6 +24,14 @@ the Parquet writes; ``scaling`` = runs per minute with 2 workers / with 1. ``sam
 every worker count gave the serial rows (timing columns aside). ``own_cores`` and ``other_cores``
 (:class:`CpuMeter`) tell whether other jobs shared the cores meanwhile. With ``--repeats`` > 1
 the configurations alternate and each figure is the median repeat's.
+
+Campaign sizing (issue 12): a 1,000-case, seven-method campaign of 20 s runs, projected from the
+runs per minute measured on 2 workers: ``projection["free_1000x7_minutes"]`` (target under 5
+minutes) from the free campaign, and ``projection["arm_1000x7_minutes"]`` (target under 30) from
+the arm campaign at the default rates, for the seven twist methods (their mean run, the dearer
+ones on the arm: a pseudo-inverse of J_C at every joint tick) and for the nine-method mix.
+Both are projections from ``--cases`` and ``--arm-cases`` cases, not 7,000 runs; they assume the
+measured mix of outcomes (a run that stops early is shorter).
 
 Run: ``python benchmarks/bench_campaign.py --json campaign.json``.
 """
@@ -41,9 +49,9 @@ from typing import Any
 import numpy as np
 
 try:  # imported as benchmarks.bench_campaign
-    from ._timing import count, machine, perf_counter, seconds, write_json
+    from ._timing import CpuShare, count, machine, perf_counter, seconds, write_json
 except ImportError:  # run as a script
-    from _timing import count, machine, perf_counter, seconds, write_json
+    from _timing import CpuShare, count, machine, perf_counter, seconds, write_json
 
 from ibvs_youla.campaign.cases import generate_cases
 from ibvs_youla.campaign.run import run_spec
@@ -54,7 +62,12 @@ ARM_METHODS = ("fb", "ff+fb", *TWIST_METHODS)
 WORKERS = (1, 2)
 TIMING_COLUMNS = ("wall_s", "update_median_us", "update_p95_us")
 WARM_UP_S = 0.2  # [s] simulated per warm-up run
-TARGETS = {"scaling_min": 1.7, "overhead_share_max": 0.05, "free_1000x7_minutes_max": 5.0}
+TARGETS = {
+    "scaling_min": 1.7,
+    "overhead_share_max": 0.05,
+    "free_1000x7_minutes_max": 5.0,
+    "arm_1000x7_minutes_max": 30.0,
+}
 
 
 def campaigns(args: argparse.Namespace) -> dict[str, dict[str, Any]]:
@@ -258,12 +271,13 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument("--cases", type=count, default=30, help="free-camera cases (default 30, x 7 methods)")
     ap.add_argument("--arm-cases", type=count, default=3, help="arm cases (default 3, x 9 methods)")
     ap.add_argument("--duration", type=seconds, default=20.0, help="simulated s per free-camera run (20)")
-    ap.add_argument("--arm-duration", type=seconds, default=10.0, help="simulated s per arm run (10)")
+    ap.add_argument("--arm-duration", type=seconds, default=20.0, help="simulated s per arm run (20)")
     ap.add_argument("--repeats", type=count, default=1, help="timed repeats of every configuration (1)")
     ap.add_argument("--batch", type=count, default=50, help="rows per Parquet file written (50)")
     args = ap.parse_args(argv)
 
     load_before = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
+    cpu = CpuShare()
     plan = campaigns(args)
     warm = [w for c in plan.values() for w in warm_up_specs(c["specs"])]
     for s in warm:  # this process too, for the serial runs
@@ -308,9 +322,22 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         report["campaigns"][name] = entry
     free = report["campaigns"]["free"]
     minutes = {k: 1000 * len(TWIST_METHODS) / cfg["runs_per_minute"] for k, cfg in free["workers"].items()}
+    arm_minutes = {
+        mix: {
+            k: 7000 * run_s / 60.0 / int(k) / (1.0 - cfg["overhead_share"]) for k, cfg in arm_workers.items()
+        }
+        for mix, run_s, arm_workers in (
+            ("twist", _mean_run_s(timed["arm"], TWIST_METHODS), report["campaigns"]["arm"]["workers"]),
+            ("all", _mean_run_s(timed["arm"], ARM_METHODS), report["campaigns"]["arm"]["workers"]),
+        )
+    }
     report["projection"] = {
         "free_1000x7_minutes": minutes,
         "free_1000x7_minutes_at_duration_s": args.duration,
+        "arm_1000x7_minutes": arm_minutes["twist"],
+        "arm_1000x7_all_methods_minutes": arm_minutes["all"],
+        "arm_1000x7_minutes_at_duration_s": args.arm_duration,
+        "arm_run_s_by_method": _run_s_by_method(timed["arm"]),
     }
     report["targets"] = {
         **TARGETS,
@@ -322,9 +349,11 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
                 for k, cfg in c["workers"].items()
             },
             "free_1000x7_minutes": minutes["2"] < TARGETS["free_1000x7_minutes_max"],
+            "arm_1000x7_minutes": arm_minutes["twist"]["2"] < TARGETS["arm_1000x7_minutes_max"],
         },
     }
     report["load_average_1min_after"] = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
+    report["cpu"] = cpu.stop()
 
     for name, c in report["campaigns"].items():
         s = c["serial"]
@@ -343,10 +372,55 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         print(f"  scaling 2/1: {c['scaling']:.2f}; same rows as serial: {c['same_rows']}")
     print(
         f"1,000 free cases x 7 methods of {args.duration:g} s: {minutes['1']:.1f} min on 1 worker, "
-        f"{minutes['2']:.1f} min on 2"
+        f"{minutes['2']:.1f} min on 2 (target < {TARGETS['free_1000x7_minutes_max']:g})"
     )
-    write_json(args.json, report)
+    print(
+        f"1,000 arm cases x 7 twist methods of {args.arm_duration:g} s: "
+        f"{arm_minutes['twist']['1']:.1f} min on 1 worker, {arm_minutes['twist']['2']:.1f} min on 2 "
+        f"(target < {TARGETS['arm_1000x7_minutes_max']:g}); "
+        f"with the nine-method mix {arm_minutes['all']['2']:.1f} min on 2"
+    )
+    write_json(args.json, report, headline)
     return report
+
+
+def _arm_rows(entries: dict[str, list[dict[str, Any]]]) -> list[dict[str, Any]]:
+    """Every row the arm campaign produced, over every configuration and repeat (the runs' own times)."""
+    return [row for config in entries.values() for entry in config for row in entry["rows"]]
+
+
+def _run_s_by_method(entries: dict[str, list[dict[str, Any]]]) -> dict[str, float]:
+    """Median run time [s] of each method (in-worker and serial runs alike)."""
+    by: dict[str, list[float]] = {}
+    for row in _arm_rows(entries):
+        by.setdefault(row["controller"], []).append(row["wall_s"])
+    return {name: float(np.median(v)) for name, v in sorted(by.items())}
+
+
+def _mean_run_s(entries: dict[str, list[dict[str, Any]]], methods: tuple[str, ...]) -> float:
+    """Mean over ``methods`` of each method's median in-worker run time [s] (a campaign's mix)."""
+    by: dict[str, list[float]] = {}
+    for label, config in entries.items():
+        if label == "serial":
+            continue
+        for entry in config:
+            for row in entry["rows"]:
+                by.setdefault(row["controller"], []).append(row["wall_s"])
+    return float(np.mean([np.median(by[m]) for m in methods]))
+
+
+def headline(r: dict[str, Any]) -> dict[str, Any]:
+    """The figures kept in the report's history."""
+    return {
+        "runs_per_minute": {
+            n: {k: c["runs_per_minute"] for k, c in camp["workers"].items()}
+            for n, camp in r["campaigns"].items()
+        },
+        "scaling": {n: camp["scaling"] for n, camp in r["campaigns"].items()},
+        "free_1000x7_minutes_2_workers": r["projection"]["free_1000x7_minutes"]["2"],
+        "arm_1000x7_minutes_2_workers": r["projection"].get("arm_1000x7_minutes", {}).get("2"),
+        "other_cores": r.get("cpu", {}).get("other_cores"),
+    }
 
 
 if __name__ == "__main__":

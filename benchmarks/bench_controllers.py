@@ -82,9 +82,9 @@ from scipy.linalg import lapack
 from scipy.spatial.transform import Rotation, Slerp
 
 try:  # imported as benchmarks.bench_controllers
-    from ._timing import count, machine, perf_counter, summary_us, write_json
+    from ._timing import CpuShare, count, machine, perf_counter, summary_us, write_json
 except ImportError:  # run as a script
-    from _timing import count, machine, perf_counter, summary_us, write_json
+    from _timing import CpuShare, count, machine, perf_counter, summary_us, write_json
 
 import ibvs_youla as iy
 from ibvs_youla import controllers, scenarios
@@ -452,6 +452,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     times = {case: {key: [] for key in setup[case]["jobs"]} for case in CASES}
     mvtb: dict[str, list[float]] = {"mvtb-ibvs-step": [], "mvtb-ibvs-law": []}
 
+    cpu = CpuShare()
     gc_was_enabled = gc.isenabled()
     gc.disable()
     try:
@@ -476,9 +477,19 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             worker.close()
 
     report = _report(args, setup, times, mvtb, worker)
+    report["cpu"] = cpu.stop()
     _print(report)
-    write_json(args.json, report)
+    write_json(args.json, report, headline)
     return report
+
+
+def headline(r: dict[str, Any]) -> dict[str, Any]:
+    """The figures kept in the report's history: each method's median [us] and ratio to its floor."""
+    return {
+        "median_us": {name: e["median_us"] for name, e in r["controllers"].items()},
+        "ratio_to_floor": {name: e["ratio_to_floor"] for name, e in r["controllers"].items()},
+        "other_cores": r.get("cpu", {}).get("other_cores"),
+    }
 
 
 def _entry(stats: dict[str, dict[str, float]], name: str, floor_calls: tuple[str, ...] | None) -> dict:

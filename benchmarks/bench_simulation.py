@@ -1,18 +1,33 @@
-"""Simulated seconds per wall-clock second of both paper scenarios, and where the time goes.
+"""Simulated seconds per wall-clock second: the paper's scenarios, and classical IBVS on the ideal plants.
 
-Two settings per scenario, controller ``"ff+fb"``, adaptive outer loop (the paper's proposal):
+**The paper's scenarios** (``realtime_factor[scenario][settings]``): both paper scenarios,
+controller ``"ff+fb"``, adaptive outer loop (the paper's proposal), on the dynamic arm, in two
+settings:
 
 * ``paper``: the paper's rates, joint loop and camera/outer loop both at 1 kHz
   (``SimulationSettings.paper()``), every sample recorded;
-* ``two-rate``: joint loop at 1 kHz, camera and outer loop at 100 Hz (the ZED's fastest mode),
-  every sample recorded.
+* ``two-rate``: joint loop at 1 kHz, camera and outer loop at 100 Hz (the ZED's fastest mode,
+  the library's default), every sample recorded.
+
+**Classical IBVS** (``classical[case]``): ``"ibvs-current"`` (L at the current features and
+depths) on the two ideal plants, at ViSP's 40 ms control period (25 Hz, ``tutorial-ibvs-4pts``,
+the campaigns' free-camera rate), ``--classical-duration`` seconds per run:
+
+* ``kinematic/physical-2``: the kinematic arm (joint velocities followed exactly, a tick per
+  frame: ``SimulationSettings(joint_rate_hz=25, camera_rate_hz=25)``), the physical-2 scenario
+  (three markers in view), the default ZED 2 stereo camera (depths by triangulation);
+* ``free-camera/physical-2``: the free-flying camera between the same start and target poses,
+  same camera;
+* ``free-camera/gans-general``: the free-flying camera, ViSP's normalized monocular camera and
+  four coplanar points (the general motion of the Gans et al. suite, ``analysis.suites``): the
+  depths come from the monocular pose, OpenCV's SQPnP at every frame.
 
 ``realtime_factor`` = simulated time / median wall time of ``simulate(...)`` (arm and camera
 built beforehand; the run's own set-up is included). The cost split is the servo loop's own
-phase timing of the same runs (``result.metadata["phase_seconds"]``): the plant step (RK4 of
+phase timing of the median run (``result.metadata["phase_seconds"]``): the plant step (RK4 of
 Eq. (29): four ABA calls, divergence checks), the camera frame (true camera pose, sensor and
-the adaptive outer-loop update), and the joint-loop control (feedforward, the inner Youla loop
-and feedback linearization M(q) v + h in one RNEA pass, recording).
+the controller's update), and the tick-rate control (the controller's command, the actuation
+chain, recording). ``cpu["other_cores"]`` is what other jobs used of the cores meanwhile.
 
 Run: ``python benchmarks/bench_simulation.py --json simulation.json``.
 """
@@ -26,28 +41,47 @@ from typing import Any
 import numpy as np
 
 try:  # imported as benchmarks.bench_simulation
-    from ._timing import count, machine, perf_counter, seconds, write_json
+    from ._timing import CpuShare, count, machine, perf_counter, seconds, write_json
 except ImportError:  # run as a script
-    from _timing import count, machine, perf_counter, seconds, write_json
+    from _timing import CpuShare, count, machine, perf_counter, seconds, write_json
 
 import ibvs_youla
 from ibvs_youla import scenarios
+from ibvs_youla.analysis import suites
 from ibvs_youla.model.arm import Arm
-from ibvs_youla.model.camera import StereoCamera
+from ibvs_youla.model.camera import PinholeCamera, StereoCamera, default_camera
 from ibvs_youla.simulation.settings import SimulationSettings
 
 SETTINGS = {"paper": SimulationSettings.paper(), "two-rate": SimulationSettings(camera_rate_hz=100.0)}
+CLASSICAL_RATE_HZ = 25.0  # [Hz] ViSP's 40 ms period
+TARGETS = {"paper": 20.0, "two-rate": 50.0, "classical": 1000.0}  # issue 12: x real time, at least
 
 
-def _split(result: Any, wall: float, settings: SimulationSettings) -> dict:
-    """Per-step cost of dynamics, outer loop and joint-loop control from the loop's phase timing."""
-    phases = result.metadata["phase_seconds"]
-    steps = len(result.t) * settings.record_every  # ticks 0..n recorded every record_every
-    n_ticks = round(result.metadata["duration"] * settings.joint_rate_hz)
-    frames = len(result.frame_t)
+CLASSICAL_SETTINGS = SimulationSettings(joint_rate_hz=CLASSICAL_RATE_HZ, camera_rate_hz=CLASSICAL_RATE_HZ)
+
+
+def _classical_cases() -> dict[str, dict[str, Any]]:
+    """Scenario, plant and camera of each classical-IBVS case (module docstring)."""
+    physical = scenarios.physical(2)
+    return {
+        "kinematic/physical-2": {"scenario": physical, "plant": "kinematic", "camera": default_camera()},
+        "free-camera/physical-2": {"scenario": physical, "plant": "free-camera", "camera": default_camera()},
+        "free-camera/gans-general": {
+            "scenario": suites.task("gans-general").scenario(),
+            "plant": "free-camera",
+            "camera": PinholeCamera.normalized(CLASSICAL_RATE_HZ),
+        },
+    }
+
+
+def _split(result: Any) -> dict:
+    """Per-step cost of the plant, the camera frame and the tick-rate control from the loop's timing."""
+    phases, meta = result.metadata["phase_seconds"], result.metadata
+    tick_rate = meta["joint_rate_hz"] or meta["camera_rate_hz"]  # the free camera ticks at its frames
+    n_ticks = max(1, round(meta["duration"] * tick_rate))
+    frames = max(1, len(result.frame_t))
     total = sum(phases.values())
     return {
-        "wall_s": wall,
         "dynamics_us_per_step": phases["plant"] / n_ticks * 1e6,
         "outer_us_per_frame": phases["frame"] / frames * 1e6,
         "joint_control_us_per_step": phases["control"] / (n_ticks + 1) * 1e6,
@@ -57,68 +91,145 @@ def _split(result: Any, wall: float, settings: SimulationSettings) -> dict:
             "joint_control": phases["control"] / total,
         },
         "ticks": n_ticks + 1,
-        "recorded": steps,
+        "frames": frames,
     }
+
+
+def _time(repeats: int, run: Any) -> tuple[list[float], Any]:
+    walls, results = [], []
+    for _ in range(repeats):
+        t0 = perf_counter()
+        results.append(run())
+        walls.append(perf_counter() - t0)
+    median = int(np.argsort(walls)[len(walls) // 2])
+    return walls, results[median]
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
     """Run the benchmark, print a summary, write JSON if asked; return the report."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--json", metavar="FILE", help="write the report here")
-    ap.add_argument("--duration", type=seconds, default=5.0, help="simulated seconds per run (default 5)")
+    ap.add_argument("--duration", type=seconds, default=5.0, help="simulated s per paper run (default 5)")
+    ap.add_argument("--classical-duration", type=seconds, default=20.0, help="simulated s per IBVS run (20)")
     ap.add_argument("--repeats", type=count, default=3, help="timed runs per case (default 3)")
     args = ap.parse_args(argv)
 
     arm, camera = Arm.irb4600(), StereoCamera.zed2()
     ibvs_youla.simulate(scenarios.paper(1), duration=0.05, arm=arm, camera=camera)  # warm-up
+    cpu = CpuShare()
     realtime: dict[str, dict[str, float]] = {}
     cases: dict[str, dict[str, Any]] = {}
     for sc in scenarios.paper_scenarios():
         realtime[sc.name] = {}
         for label, settings in SETTINGS.items():
-            walls, results = [], []
-            for _ in range(args.repeats):
-                t0 = perf_counter()
-                result = ibvs_youla.simulate(
+
+            def paper_run(sc: Any = sc, settings: SimulationSettings = settings) -> Any:
+                return ibvs_youla.simulate(
                     sc, "ff+fb", True, args.duration, settings=settings, arm=arm, camera=camera
                 )
-                walls.append(perf_counter() - t0)
-                results.append(result)
-            median = int(np.argsort(walls)[len(walls) // 2])
-            wall = walls[median]
+
+            walls, result = _time(args.repeats, paper_run)
+            wall = float(np.median(walls))
             realtime[sc.name][label] = args.duration / wall
             cases[f"{sc.name}/{label}"] = {
                 "wall_median_s": wall,
                 "wall_s": walls,
                 "status": result.metadata["status"],
                 "update_time_median_us": float(np.median(result.update_time) * 1e6),
-                "split": _split(results[median], wall, settings),
+                "split": _split(result),
             }
-            c = cases[f"{sc.name}/{label}"]
-            f = c["split"]["fraction"]
-            print(
-                f"{sc.name:8} {label:9} {realtime[sc.name][label]:6.2f}x real time "
-                f"(wall {wall:.3f} s for {args.duration:g} s); split: dynamics {f['dynamics']:.0%} "
-                f"({c['split']['dynamics_us_per_step']:.1f} us/step), outer {f['outer']:.0%} "
-                f"({c['split']['outer_us_per_frame']:.1f} us/frame), "
-                f"joint control {f['joint_control']:.0%} "
-                f"({c['split']['joint_control_us_per_step']:.1f} us/step)"
+            _print(
+                f"{sc.name}/{label}",
+                realtime[sc.name][label],
+                wall,
+                args.duration,
+                cases[f"{sc.name}/{label}"],
             )
+
+    classical: dict[str, dict[str, Any]] = {}
+    rate = CLASSICAL_SETTINGS
+    for name, spec in _classical_cases().items():
+
+        def ibvs_run(spec: dict[str, Any] = spec) -> Any:
+            return ibvs_youla.simulate(
+                spec["scenario"],
+                "ibvs-current",
+                duration=args.classical_duration,
+                plant=spec["plant"],
+                camera=spec["camera"],
+                settings=rate,
+                arm=arm,
+            )
+
+        ibvs_youla.simulate(
+            spec["scenario"],
+            "ibvs-current",
+            duration=1.0,
+            plant=spec["plant"],
+            camera=spec["camera"],
+            settings=rate,
+            arm=arm,
+        )  # warm-up
+        walls, result = _time(args.repeats, ibvs_run)
+        wall = float(np.median(walls))
+        classical[name] = {
+            "realtime_factor": args.classical_duration / wall,
+            "wall_median_s": wall,
+            "wall_s": walls,
+            "status": result.metadata["status"],
+            "frames": len(result.frame_t),
+            "update_time_median_us": float(np.median(result.update_time) * 1e6),
+            "split": _split(result),
+        }
+        _print(name, classical[name]["realtime_factor"], wall, args.classical_duration, classical[name])
+    cores = cpu.stop()
+
+    met = {
+        "paper": {n: f["paper"] >= TARGETS["paper"] for n, f in realtime.items()},
+        "two-rate": {n: f["two-rate"] >= TARGETS["two-rate"] for n, f in realtime.items()},
+        "classical": {n: c["realtime_factor"] >= TARGETS["classical"] for n, c in classical.items()},
+    }
     report = {
         "benchmark": "simulation",
         "realtime_factor": realtime,
         "cases": cases,
+        "classical": classical,
+        "targets": {"min_realtime_factor": TARGETS, "met": met},
+        "cpu": cores,
         "settings": {
             "duration_s": args.duration,
+            "classical_duration_s": args.classical_duration,
             "repeats": args.repeats,
             "controller": "ff+fb",
             "adaptive": True,
             "camera_rate_hz": {k: s.joint_rate_hz / s.camera_every for k, s in SETTINGS.items()},
+            "classical_rate_hz": CLASSICAL_RATE_HZ,
         },
         "machine": machine(),
     }
-    write_json(args.json, report)
+    other = cores["other_cores"]
+    print(f"other jobs used {'?' if other is None else f'{other:.2f}'} cores meanwhile")
+    write_json(args.json, report, headline)
     return report
+
+
+def headline(r: dict[str, Any]) -> dict[str, Any]:
+    """The figures kept in the report's history."""
+    return {
+        "realtime_factor": r["realtime_factor"],
+        "classical": {n: c["realtime_factor"] for n, c in r.get("classical", {}).items()},
+        "other_cores": r.get("cpu", {}).get("other_cores"),
+    }
+
+
+def _print(name: str, factor: float, wall: float, duration: float, case: dict[str, Any]) -> None:
+    f, split = case["split"]["fraction"], case["split"]
+    print(
+        f"{name:26} {factor:8.1f}x real time (wall {wall:.3f} s for {duration:g} s, {case['status']}); "
+        f"plant {f['dynamics']:.0%} ({split['dynamics_us_per_step']:.1f} us/tick), frame {f['outer']:.0%} "
+        f"({split['outer_us_per_frame']:.1f} us/frame), tick control {f['joint_control']:.0%} "
+        f"({split['joint_control_us_per_step']:.1f} us/tick)"
+    )
 
 
 if __name__ == "__main__":

@@ -24,6 +24,12 @@ def load(name):
     return module
 
 
+def controllers_names():
+    from ibvs_youla import controllers
+
+    return controllers.names()
+
+
 def finite_positive(x):
     return isinstance(x, float) and math.isfinite(x) and x > 0.0
 
@@ -41,32 +47,47 @@ def test_outer_loop_benchmark_writes_its_keys(tmp_path):
         "floor_median_us",
         "ratio_to_floor",
         "rebuild_ratio",
-        "features_median_us",
-        "pose_ik_median_us",
+        "camera_pose_median_us",
+        "sensor_median_us",
+        "p3p_median_us",
+        "ik_median_us",
         "jacobian_median_us",
-        "svd_median_us",
+        "svd_gains_median_us",
         "state_update_median_us",
     ]
     for key in keys:
         assert finite_positive(saved[key]), key
     assert saved["ratio_to_floor"] == pytest.approx(saved["update_median_us"] / saved["floor_median_us"])
+    assert saved["glue_median_us"] == pytest.approx(saved["update_median_us"] - saved["parts_sum_median_us"])
+    assert saved["target"]["met"] == (saved["ratio_to_floor"] <= 2.5)
     assert saved["stats"]["update"]["n"] == 4
     assert saved["machine"]["cores"] >= 1 and saved["machine"]["date"]
     assert report["update_median_us"] == saved["update_median_us"]
+    assert [h["ratio_to_floor"] for h in saved["history"]] == [saved["ratio_to_floor"]]
 
 
 @pytest.mark.slow
 def test_simulation_benchmark_writes_realtime_factors(tmp_path):
     out = tmp_path / "simulation.json"
-    load("bench_simulation").main(["--duration", "0.02", "--repeats", "1", "--json", str(out)])
+    load("bench_simulation").main(
+        ["--duration", "0.02", "--classical-duration", "0.2", "--repeats", "1", "--json", str(out)]
+    )
     saved = json.loads(out.read_text())
     assert set(saved["realtime_factor"]) == {"paper-1", "paper-2"}
     for factors in saved["realtime_factor"].values():
         assert set(factors) == {"paper", "two-rate"}
         assert all(finite_positive(v) for v in factors.values())
-    for case in saved["cases"].values():
+    for case in [*saved["cases"].values(), *saved["classical"].values()]:
         assert case["status"] == "complete"
         assert sum(case["split"]["fraction"].values()) == pytest.approx(1.0)
+    assert set(saved["classical"]) == {
+        "kinematic/physical-2",
+        "free-camera/physical-2",
+        "free-camera/gans-general",
+    }
+    assert all(finite_positive(c["realtime_factor"]) for c in saved["classical"].values())
+    met = saved["targets"]["met"]
+    assert met["two-rate"]["paper-1"] == (saved["realtime_factor"]["paper-1"]["two-rate"] >= 50.0)
 
 
 @pytest.mark.slow
@@ -153,7 +174,18 @@ def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
         assert campaign["scaling"] == pytest.approx(two / one)
     minutes = saved["projection"]["free_1000x7_minutes"]
     assert minutes["2"] == pytest.approx(7000 / saved["campaigns"]["free"]["workers"]["2"]["runs_per_minute"])
-    assert set(saved["targets"]["met"]) == {"scaling", "overhead_share", "free_1000x7_minutes"}
+    assert set(saved["targets"]["met"]) == {
+        "scaling",
+        "overhead_share",
+        "free_1000x7_minutes",
+        "arm_1000x7_minutes",
+    }
+    arm = saved["projection"]["arm_1000x7_minutes"]
+    assert finite_positive(arm["2"]) and finite_positive(
+        saved["projection"]["arm_1000x7_all_methods_minutes"]["2"]
+    )
+    assert set(saved["projection"]["arm_run_s_by_method"]) == set(controllers_names())
+    assert len(saved["history"]) == 1 and saved["history"][0]["arm_1000x7_minutes_2_workers"] == arm["2"]
     assert saved["machine"]["cores"] >= 1 and saved["machine"]["date"]
     assert report["campaigns"]["free"]["scaling"] == saved["campaigns"]["free"]["scaling"]
 
@@ -173,3 +205,54 @@ def test_detection_benchmark_writes_the_sweep_and_the_time_per_frame(tmp_path):
         assert timing["stats"]["observe"]["n"] == 2
     assert saved["timing"]["HD720"]["resolution"] == [1280, 720]
     assert report["settings"]["diameter_m"] == 0.05
+
+
+def test_reports_keep_their_history(tmp_path):
+    """write_json appends the run's headline to the file's history; a report from before histories
+    existed becomes the first entry; the latest report stays at the top level."""
+    timing = load("_timing")
+    out = tmp_path / "report.json"
+    legacy = {
+        "benchmark": "x",
+        "ratio": 5.5,
+        "machine": {"date": "2026-11-23T11:19:00+00:00", "load_average_1min": 0.7},
+    }
+    out.write_text(json.dumps(legacy))
+    for ratio, date in ((2.2, "2026-12-02T10:00:00+00:00"), (2.1, "2026-12-02T11:00:00+00:00")):
+        report = {
+            "benchmark": "x",
+            "ratio": ratio,
+            "machine": {"date": date, "load_average": [0.5, 0.4, 0.3]},
+        }
+        timing.write_json(str(out), report, lambda r: {"ratio": r["ratio"]})
+    saved = json.loads(out.read_text())
+    assert saved["ratio"] == 2.1
+    assert [h["ratio"] for h in saved["history"]] == [5.5, 2.2, 2.1]
+    assert [h["date"][:10] for h in saved["history"]] == ["2026-11-23", "2026-12-02", "2026-12-02"]
+    assert saved["history"][0]["load_average"] == [0.7] and saved["history"][-1]["load_average"] == [
+        0.5,
+        0.4,
+        0.3,
+    ]
+
+
+@pytest.mark.slow
+def test_run_all_regenerates_the_readme_blocks_from_the_reports(tmp_path):
+    """run_all.py runs the chosen benchmarks into the reports folder (their histories grow), then
+    rewrites each README block between its markers from the reports, leaving the prose alone."""
+    readme = tmp_path / "README.md"
+    readme.write_text(
+        "Prose before.\n<!-- figures:outer_loop -->\nold figures\n<!-- /figures:outer_loop -->\n"
+        "Prose between.\n<!-- figures:history -->\nold\n<!-- /figures:history -->\nProse after.\n"
+    )
+    reports = tmp_path / "reports"
+    argv = ["--quick", "--only", "outer_loop", "--reports", str(reports), "--readme", str(readme)]
+    assert load("run_all").main(argv) == 0
+    assert load("run_all").main(argv) == 0
+    saved = json.loads((reports / "outer_loop.json").read_text())
+    assert len(saved["history"]) == 2
+    text = readme.read_text()
+    assert text.startswith("Prose before.\n<!-- figures:outer_loop -->\n| |")
+    assert "old figures" not in text and "Prose between." in text and text.endswith("Prose after.\n")
+    assert f"**{saved['ratio_to_floor']:,.2f}**" in text  # the ratio of the latest report
+    assert text.count("| 20") >= 2  # two rows of history, one per run (dates of this century)

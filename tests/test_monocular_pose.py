@@ -92,3 +92,37 @@ def test_bad_input_is_named():
         estimate_pose_monocular(camera, np.zeros(8), PLANAR, method="p3p-magic")
     with pytest.raises(InvalidParameterError, match="camera"):
         estimate_camera_pose("zed", np.zeros(8), PLANAR)
+
+
+def test_the_pose_estimator_gives_estimate_camera_pose_and_solves_once_per_image():
+    """CameraPoseEstimator(camera, P, **options)(features) is estimate_camera_pose(camera, features, P,
+    **options), bit for bit, for both cameras; the same image again returns that pose without a
+    second solve; another shape of features is refused by name."""
+    from unittest import mock
+
+    from ibvs_youla.estimation import monocular_pose
+    from ibvs_youla.estimation.monocular_pose import CameraPoseEstimator
+
+    rng = np.random.default_rng(SEED + 1)
+    for camera, P, options in (
+        (PinholeCamera.normalized(), PLANAR, {}),
+        (StereoCamera.zed2(), PLANAR + np.array([0.0, 0.0, 2.0]), {"allow_behind": False}),
+    ):
+        estimator = CameraPoseEstimator(camera, P, **options)
+        sensor = MarkerSensor(camera, P)
+        for _ in range(20):
+            T_O_C = random_pose(rng)  # looking at the square (2 m in front of a stereo camera at about 0)
+            if isinstance(camera, StereoCamera):
+                T_O_C = np.eye(4)
+                T_O_C[:3, 3] = rng.uniform(-0.1, 0.1, 3)
+            features = sensor.features_at(T_O_C)
+            np.testing.assert_array_equal(
+                estimator(features), estimate_camera_pose(camera, features, P, **options)
+            )
+    estimator = CameraPoseEstimator(PinholeCamera.normalized(), PLANAR)
+    features = MarkerSensor(PinholeCamera.normalized(), PLANAR).features_at(random_pose(rng))
+    first = estimator(features)
+    with mock.patch.object(monocular_pose, "_solve_pnp", side_effect=AssertionError("solved again")):
+        np.testing.assert_array_equal(estimator(features.copy()), first)
+    with pytest.raises(InvalidArrayError, match=r"features: received an array of shape \(7,\)"):
+        estimator(np.zeros(7))

@@ -5,8 +5,9 @@ diagonal MIMO system ``G(s) * I_m`` (Eq. (36), (45), (47), and ERRATA 9 for the 
 loop), so one SISO realization ``(A, B, C, D)`` with an ``(n, m)`` state array serves
 all m channels. The filter runs inside the simulation loop (about 10^4 calls per
 simulated second across all filters), so :meth:`DiscreteFilter.step` is one product
-of the stacked matrix [[A, B], [C, D]] with [x; u] into a preallocated buffer, behind
-a shape check that costs about 0.1 us; nothing here rebuilds a transfer function.
+of the stacked matrix [[A, B], [C, D]] with [x; u] into a preallocated buffer (one compiled
+call, :func:`filter_step`), behind a shape check that costs
+about 0.1 us; nothing here rebuilds a transfer function.
 
 Discretization (:meth:`DiscreteFilter.from_tf`) uses ``scipy.signal.cont2discrete``:
 
@@ -28,13 +29,53 @@ import control as ct
 import numpy as np
 from scipy.signal import cont2discrete
 
+from .._jit import jit
 from .._validation import as_array, integer, one_of, positive
 from ..exceptions import InvalidArrayError, InvalidParameterError
 
-__all__ = ["METHODS", "DiscreteFilter"]
+__all__ = ["METHODS", "DiscreteFilter", "filter_step", "filter_step_difference"]
 
 METHODS = ("zoh", "foh", "tustin")
 _SCIPY_METHOD = {"zoh": "zoh", "foh": "foh", "tustin": "bilinear"}
+
+
+@jit
+def filter_step(M: np.ndarray, z: np.ndarray, z_next: np.ndarray, u: np.ndarray, y: np.ndarray) -> None:
+    """z[-1] = u, z_next = M z, y = z_next[-1], the output (compiled; y written, not returned).
+
+    The kernel of :meth:`DiscreteFilter.step`: M = [[A, B], [C, D]] (n + 1, n + 1), z = [x; u]
+    (n + 1, m) and z_next (n + 1, m), so z_next = [A x + B u; C x + D u]. Unvalidated; pinned to
+    ``M.dot(z)`` by ``tests/test_compiled_kernels.py``.
+    """
+    rows, m = z.shape
+    for j in range(m):
+        z[rows - 1, j] = u[j]
+    _product(M, z, z_next, y)
+
+
+@jit
+def filter_step_difference(
+    M: np.ndarray, z: np.ndarray, z_next: np.ndarray, r: np.ndarray, y_in: np.ndarray, y: np.ndarray
+) -> None:
+    """:func:`filter_step` with the input u = r - y_in formed inside (the error of a feedback loop)."""
+    rows, m = z.shape
+    for j in range(m):
+        z[rows - 1, j] = r[j] - y_in[j]
+    _product(M, z, z_next, y)
+
+
+@jit
+def _product(M: np.ndarray, z: np.ndarray, z_next: np.ndarray, y: np.ndarray) -> None:
+    """z_next = M z, and y = its last row."""
+    rows, m = z.shape
+    for a in range(rows):
+        for j in range(m):
+            acc = 0.0
+            for b in range(rows):
+                acc += M[a, b] * z[b, j]
+            z_next[a, j] = acc
+    for j in range(m):
+        y[j] = z_next[rows - 1, j]
 
 
 class DiscreteFilter:
@@ -179,10 +220,25 @@ class DiscreteFilter:
             if u.shape != self._shape:
                 raise InvalidArrayError("u", f"an array of shape {u.shape}", f"shape {self._shape}")
         z, z_next = self._z, self._z_next
-        z[-1] = u
-        self._M.dot(z, out=z_next)  # [A x + B u; C x + D u]
+        y = np.empty(self._shape[0])  # a new array (cheaper than one returned by compiled code)
+        filter_step(self._M, z, z_next, u, y)  # z[-1] = u; z_next = [A x + B u; C x + D u]: compiled
         self._z, self._z_next = z_next, z
-        return z_next[-1].copy()
+        return y
+
+    def step_difference(self, r: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """:meth:`step` of u = r - y (n-channel arrays), without forming r - y first.
+
+        The error of a feedback loop at every tick (the inner loop, Eq. (41)). ``y`` must be a
+        float (m,) array (e.g. the encoders); an ``r`` of another shape goes through :meth:`step`,
+        which checks it.
+        """
+        if getattr(r, "shape", None) != self._shape:
+            return self.step(np.asarray(r) - y)
+        z, z_next = self._z, self._z_next
+        out = np.empty(self._shape[0])
+        filter_step_difference(self._M, z, z_next, r, y, out)
+        self._z, self._z_next = z_next, z
+        return out
 
     # ------------------------------------------------------------------ resets
     def reset(self, state: Any = None) -> None:

@@ -46,6 +46,7 @@ from ..exceptions import InvalidArrayError, InvalidParameterError
 from .discrete import DiscreteFilter
 from .inner import InnerLoopDesign
 from .singular_values import SingularValuePolicy, SvdGains
+from .svd_kernels import svd_gains_apply
 
 __all__ = [
     "OMEGA_N_TAU_IN_MIN",
@@ -248,6 +249,7 @@ class OuterLoopController:
         self, design: OuterLoopDesign, dt: float, n_joints: int = 6, J: Any = None, method: str = "tustin"
     ) -> None:
         self._policy = design.sv_policy
+        self._damped, self._threshold = self._policy.kind == "damped", self._policy.threshold
         self._filter = DiscreteFilter.from_tf(design.filter_tf(), dt, n_joints, method=method)
         self._n = n_joints
         self._fixed: SvdGains | None = None
@@ -309,12 +311,17 @@ class OuterLoopController:
 
         Kernel of ``update(e_image, J)``, called by the servo loop's controller at every frame:
         does not validate its arguments, which must be finite float64 arrays e (m,) [m on the
-        sensor] and J (m, n). P e is evaluated as V (g * (U^T e)); the pseudo-inverse itself is
-        formed only if :attr:`last_decomposition` is read. Returns the controller's own q_fb
-        array (not a copy): do not modify it.
+        sensor] and J (m, n). P e is evaluated as V (g * (U^T e)), in one compiled call with the SVD
+        and the gains (:func:`~ibvs_youla.control.svd_kernels.svd_gains_apply`); the
+        pseudo-inverse itself is formed only if :attr:`last_decomposition` is read. Returns the
+        controller's own q_fb array (not a copy): do not modify it.
         """
-        U, _, g, Vt = self._last_raw = self._policy.svd_gains(J)
-        self._q_fb = self._filter.step(Vt.T.dot(g * U.T.dot(e_image)))
+        Pe, U, s, g, Vt, ok = svd_gains_apply(J, e_image, self._damped, self._threshold)
+        if not ok:  # LAPACK failed, or no direction to control: the reference raises (or returns NaN)
+            U, s, g, Vt = self._policy.svd_gains(J)
+            Pe = Vt.T.dot(g * U.T.dot(e_image))
+        self._last_raw = (U, s, g, Vt)
+        self._q_fb = self._filter.step(Pe)
         return self._q_fb
 
     def reset(self, q_fb0: Any = None) -> None:

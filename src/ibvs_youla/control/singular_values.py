@@ -16,6 +16,7 @@ import numpy as np
 from .._linalg import svd
 from .._validation import as_array, integer, one_of, real
 from ..exceptions import InvalidArrayError, SingularConfigurationError
+from .svd_kernels import svd_gains
 
 __all__ = ["SingularValuePolicy", "SvdGains"]
 
@@ -116,11 +117,15 @@ class SingularValuePolicy:
     def svd_gains(self, J: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(U, sigma, gains, Vt) of J (m, n): `decompose` without the pseudo-inverse.
 
-        Kernel of `decompose`, called by the outer loop at every adaptive frame: does not
-        validate ``J``, which must be a finite float64 (m, n) array. LAPACK ``dgesdd`` is
-        called directly (:func:`ibvs_youla._linalg.svd`).
+        Kernel of `decompose`, called by the controllers at every frame: does not validate
+        ``J``, which must be a finite float64 (m, n) array. One compiled call
+        (:func:`~ibvs_youla.control.svd_kernels.svd_gains`: LAPACK ``dgesdd`` and the gains, the
+        same floats as the plain code below, which runs when that call cannot give them).
         """
-        U, s, Vt = svd(J)
+        U, s, g, Vt, ok = svd_gains(J, self.kind == "damped", self.threshold)
+        if ok:
+            return U, s, g, Vt
+        U, s, Vt = svd(J)  # LAPACK failed or a non-finite entry: numpy's LinAlgError, or no direction
         return U, s, np.array(self._gains(s.tolist(), max(J.shape))), Vt
 
     def pseudo_inverse(self, J: Any) -> np.ndarray:

@@ -80,6 +80,8 @@ class HybridSwitched(Controller):
         """Reset both laws with the task; the bounds are set at the first frame."""
         self._ibvs.reset(task)
         self._pbvs.reset(task)
+        if self._ibvs.pose_estimator is not None:  # monocular: both laws from one pose per frame
+            self._pbvs.pose_estimator = self._ibvs.pose_estimator  # the same camera, markers and PnP
         super().reset(task)
         self._mode = MODES.index(self.start_mode)
         self._bounds: tuple[float, float] | None = None

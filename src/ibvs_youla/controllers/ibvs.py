@@ -40,7 +40,7 @@ from ..control.singular_values import SingularValuePolicy
 from ..exceptions import InvalidParameterError
 from ..model.camera import points_interaction_matrix
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
-from .image_points import current_interaction_matrix, feature_rows
+from .image_points import CurrentInteraction, feature_rows
 
 __all__ = ["INTERACTIONS", "PINV_THRESHOLD", "REGISTRATIONS", "AdaptiveGain", "ClassicalIBVS"]
 
@@ -165,6 +165,9 @@ class ClassicalIBVS(Controller):
         super().reset(task)
         self._feature_target = target
         self._rows = rows
+        self._interaction = CurrentInteraction(task, rows)  # L(s, Z), what does not change made once
+        # monocular: the pose that gives L its depths (CameraPoseEstimator; None for stereo)
+        self.pose_estimator = self._interaction.pose_estimator
         self._L_desired = self._L_desired_pinv = None
         if self.interaction != "current":
             P_C_target = transform_points(inverse_pose(task.T_O_C_target), task.markers_O)
@@ -177,20 +180,21 @@ class ClassicalIBVS(Controller):
         """One camera frame: v = -lambda L_e^+ e (Eq. (5))."""
         e = frame.features - self._feature_target
         if self.interaction == "desired":
-            L_pinv = self._L_desired_pinv
+            L_pinv_e = self._L_desired_pinv.dot(e)
         else:
             L = self.interaction_matrix(frame.features)
             if self.interaction == "mean":
                 L = 0.5 * (L + self._L_desired)
-            L_pinv = self.pinv(L)
+            U, _, g, Vt = self._policy.svd_gains(L)  # self.pinv(L) without the argument check
+            L_pinv_e = (Vt.T * g).dot(U.T).dot(e)
         gain = self.gain
         lam = gain(float(np.max(np.abs(e)))) if isinstance(gain, AdaptiveGain) else gain
         self._lambda = np.array([lam])
-        self._twist = -lam * L_pinv.dot(e)
+        self._twist = -lam * L_pinv_e
 
     def interaction_matrix(self, features: np.ndarray) -> np.ndarray:
         """L(s, Z) (m, 6) at the given features, depths from the controller's model (class docstring)."""
-        return current_interaction_matrix(self.task, features, self._rows)
+        return self._interaction(features)
 
     def pinv(self, L: np.ndarray) -> np.ndarray:
         """L^+ (6, m) through the SVD, singular values <= 1e-6 sigma_max dropped (class docstring)."""

@@ -15,12 +15,13 @@ from __future__ import annotations
 import numpy as np
 
 from .._geometry import inverse_pose, transform_points
-from ..estimation.monocular_pose import estimate_camera_pose
+from ..estimation.monocular_pose import CameraPoseEstimator, estimate_camera_pose
 from ..exceptions import InvalidParameterError
 from ..model.camera import PinholeCamera, StereoCamera, points_interaction_matrix, triangulate_points
+from ..model.camera_kernels import camera_parameters, interaction_matrix, triangulate
 from .base import ServoTask
 
-__all__ = ["current_interaction_matrix", "feature_rows"]
+__all__ = ["CurrentInteraction", "current_interaction_matrix", "feature_rows"]
 
 
 def feature_rows(task: ServoTask, controller: str) -> int:
@@ -54,7 +55,10 @@ def feature_rows(task: ServoTask, controller: str) -> int:
 
 
 def current_interaction_matrix(task: ServoTask, features: np.ndarray, rows: int) -> np.ndarray:
-    """L(s, Z) (m, 6) at the measured features, depths from the controller's model (module docstring)."""
+    """L(s, Z) (m, 6) at the measured features, depths from the controller's model (module docstring).
+
+    The plain reference of :class:`CurrentInteraction`, which the controllers call at every frame.
+    """
     camera, n = task.camera, task.n_points
     if rows == 3:
         P_C = triangulate_points(camera, features.reshape(n, 3), task.virtual_points)
@@ -63,3 +67,41 @@ def current_interaction_matrix(task: ServoTask, features: np.ndarray, rows: int)
         Z = transform_points(inverse_pose(T_O_C), task.markers_O)[:, 2]  # [m]
         P_C = np.column_stack((features.reshape(n, 2) * (Z / camera.focal_length)[:, None], Z))
     return points_interaction_matrix(camera, P_C, task.virtual_points)
+
+
+class CurrentInteraction:
+    """:func:`current_interaction_matrix` of one task, with what does not change made once.
+
+    ``CurrentInteraction(task, rows)(features)`` gives the same matrix by the same arithmetic:
+    the triangulation and the interaction matrix in compiled calls
+    (:mod:`~ibvs_youla.model.camera_kernels`, the same operations in the same order as the
+    plain kernels, hence the same floats), the monocular pose from a
+    :class:`~ibvs_youla.estimation.monocular_pose.CameraPoseEstimator` (:attr:`pose_estimator`,
+    which a controller may share with another law).
+
+    Args:
+        task: The controller's task.
+        rows: Rows per point, from :func:`feature_rows`.
+    """
+
+    def __init__(self, task: ServoTask, rows: int) -> None:
+        self.task, self._rows, self._n = task, rows, task.n_points
+        self._camera, self._allow_behind = task.camera, bool(task.virtual_points)
+        self._params, self._lens_x = camera_parameters(task.camera)
+        self.pose_estimator = CameraPoseEstimator(task.camera, task.markers_O) if rows == 2 else None
+
+    def __call__(self, features: np.ndarray) -> np.ndarray:
+        """L(s, Z) (m, 6) at the measured features (m,)."""
+        task, camera, n = self.task, self._camera, self._n
+        if self.pose_estimator is None:  # stereo: the points triangulated
+            P_C, bad = triangulate(features.reshape(-1), self._params, self._allow_behind)
+            if bad >= 0:  # a disparity the triangulation rejects: the reference raises its error
+                triangulate_points(camera, features.reshape(n, 3), self._allow_behind)
+        else:
+            T_O_C = self.pose_estimator(features)
+            Z = transform_points(inverse_pose(T_O_C), task.markers_O)[:, 2]  # [m]
+            P_C = np.column_stack((features.reshape(n, 2) * (Z / camera.focal_length)[:, None], Z))
+        L, bad = interaction_matrix(P_C, self._params, self._lens_x, self._allow_behind)
+        if bad >= 0:  # a depth the interaction matrix rejects: the reference raises its error
+            points_interaction_matrix(camera, P_C, self._allow_behind)
+        return L  # type: ignore[no-any-return]

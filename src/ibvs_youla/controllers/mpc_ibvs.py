@@ -82,7 +82,7 @@ from .._validation import integer, non_negative, one_of, positive
 from ..exceptions import InvalidParameterError
 from ..model.camera import StereoCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
-from .image_points import current_interaction_matrix, feature_rows
+from .image_points import CurrentInteraction, feature_rows
 
 __all__ = ["FALLBACKS", "REGISTRATIONS", "MpcIBVS"]
 
@@ -242,6 +242,7 @@ class MpcIBVS(Controller):
         super().reset(task)
         lower = np.tril(np.ones((N, N)))  # row j-1: V_j = sum_{i<j} v_i
         self._rows, self._target, self._F, self._T = rows, target, F, T
+        self._interaction = CurrentInteraction(task, rows)  # L(s, Z), what does not change made once
         self._A_img, self._b_img = A_img, b_img / F  # A_img (s / F) <= b_img / F, on normalized features
         self._lower = lower
         self._W = lower.T.dot(lower)  # W[i, k] = N - max(i, k)
@@ -253,7 +254,7 @@ class MpcIBVS(Controller):
 
     def interaction_matrix(self, features: np.ndarray) -> np.ndarray:
         """L(s, Z) (m, 6) at the measured features, depths from the controller's model (module docstring)."""
-        return current_interaction_matrix(self.task, features, self._rows)
+        return self._interaction(features)
 
     def qp(self, features: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(P, q, G, h) of min 1/2 x^T P x + q^T x s.t. G x <= h over x = [v_0; ..; v_{N-1}] (6N,).

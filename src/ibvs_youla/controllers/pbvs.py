@@ -50,7 +50,7 @@ from scipy.spatial.transform import Rotation
 
 from .._geometry import inverse_pose
 from .._validation import positive
-from ..estimation.monocular_pose import estimate_camera_pose
+from ..estimation.monocular_pose import CameraPoseEstimator
 from ..exceptions import InvalidParameterError
 from ..model.camera import PinholeCamera, StereoCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
@@ -143,13 +143,14 @@ class PBVS(Controller):
         super().reset(task)
         self._T_target_O = inverse_pose(np.asarray(task.T_O_C_target, dtype=float))  # T_c*_O
         self._options = pose_options(task)
+        # the camera pose of each frame (estimate_camera_pose, its arguments checked once)
+        self.pose_estimator = CameraPoseEstimator(task.camera, task.markers_O, **self._options)
         self._error = np.zeros(6)
         self._twist = np.zeros(6)
 
     def update(self, frame: CameraFrame, reading: JointReading | None) -> None:
         """Estimate the pose from the frame, e = (c*t_c, theta u), twist of (PBVS)."""
-        task = self.task
-        T_O_C = estimate_camera_pose(task.camera, frame.features, task.markers_O, **self._options)
+        T_O_C = self.pose_estimator(frame.features)
         T_target_C = self._T_target_O @ T_O_C  # c*T_c
         R, t = T_target_C[:3, :3], T_target_C[:3, 3]
         tu = theta_u(R)

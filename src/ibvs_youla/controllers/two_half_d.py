@@ -71,7 +71,7 @@ import numpy as np
 from .._geometry import inverse_pose, transform_points
 from .._linalg import svd
 from .._validation import integer, one_of, positive
-from ..estimation.monocular_pose import estimate_camera_pose
+from ..estimation.monocular_pose import CameraPoseEstimator
 from ..exceptions import InvalidParameterError, PointBehindCameraError, PoseEstimationError
 from ..model.camera import PinholeCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
@@ -267,6 +267,8 @@ class TwoHalfD(Controller):
         self._m_ref_target = P_target / P_target[2]  # [x*, y*, 1]
         self._F = float(task.camera.focal_length)
         self._options = pose_options(task)
+        # the camera pose of each frame (estimate_camera_pose, its arguments checked once)
+        self.pose_estimator = CameraPoseEstimator(task.camera, task.markers_O, **self._options)
         if self.rotation_from == "homography":
             self._m_target = np.asarray(task.feature_target, dtype=float).reshape(n, 2) / self._F
             _, _, Vt = svd(markers_O - markers_O.mean(axis=0))
@@ -297,7 +299,7 @@ class TwoHalfD(Controller):
 
     def update(self, frame: CameraFrame, reading: JointReading | None) -> None:
         """The task function e from the frame and the twist of v_c = -lambda L^-1 e (module docstring)."""
-        task, features = self.task, frame.features
+        features = frame.features
         if self.rotation_from == "homography":
             m = features.reshape(-1, 2) / self._F
             H = euclidean_homography(self._m_target, m)
@@ -310,7 +312,7 @@ class TwoHalfD(Controller):
                 rho = H[2] @ np.array([*self._m_target[i], 1.0])
                 x, y = m[i]
         else:
-            T_O_C = estimate_camera_pose(task.camera, features, task.markers_O, **self._options)
+            T_O_C = self.pose_estimator(features)
             R_target_C = (self._T_target_O @ T_O_C)[:3, :3]
             X, Y, Z = (self._reference_O - T_O_C[:3, 3]) @ T_O_C[:3, :3]  # reference in {c}
             rho = Z / self._Z_target

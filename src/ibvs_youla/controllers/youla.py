@@ -217,6 +217,7 @@ class YoulaController(Controller):
         # per-frame hot path: options and kernels looked up once per run
         self._from_image, self._prior_previous = s.estimate_from_image, s.branch_prior == "previous"
         self._q_from_image, self._image_jacobian = self._eye.q_from_image, self._eye.image_jacobian
+        self._q_and_jacobian = self._eye.q_and_jacobian_from_image
         self._advance = self._outer.advance
 
     def update(self, frame: CameraFrame, reading: JointReading | None) -> None:
@@ -224,7 +225,12 @@ class YoulaController(Controller):
         features, q_enc = frame.features, reading.q  # type: ignore[union-attr]
         e = self._feature_target - features
         if self.adaptive:
-            self._q_fb = self._advance(e, self._image_jacobian(self._configuration_estimate(features, q_enc)))
+            if self._from_image:  # Eq. (62), and J at its estimate from the same kinematics pass
+                q_near = self._q_estimate if self._prior_previous and self._q_estimate is not None else q_enc
+                self._q_estimate, J = self._q_and_jacobian(features, q_near)
+            else:
+                J = self._image_jacobian(q_enc)
+            self._q_fb = self._advance(e, J)
         else:
             if self._first_frame:
                 s = self.settings

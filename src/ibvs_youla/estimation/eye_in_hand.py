@@ -8,7 +8,11 @@ The public methods validate their arguments (a NaN or mis-shaped input raises In
 never a NaN result or a bare numpy error); constants are precomputed. Two of them are a check in
 front of a kernel that the servo loop's controller calls directly, at every camera frame, with
 arrays valid by construction: `EyeInHand.image_jacobian` (of `jacobian`, one kinematics pass of
-the arm for T_O_C and J_C) and `EyeInHand.q_from_image` (of `estimate_q`).
+the arm for T_O_C and J_C) and `EyeInHand.q_from_image` (of `estimate_q`); the adaptive controller
+calls `EyeInHand.q_and_jacobian_from_image`, both at once from one kinematics pass at q~. The
+arithmetic runs in compiled kernels (:mod:`~ibvs_youla.estimation.stereo_kernels`,
+:mod:`~ibvs_youla.model.camera_kernels`), pinned to the plain functions they replace
+(`triangulate_points`, `kabsch_centred`, `points_interaction_matrix`) by the tests.
 """
 
 from __future__ import annotations
@@ -26,7 +30,9 @@ from ..model.camera import (
     project_points,
     triangulate_points,
 )
-from .stereo_pose import check_marker_geometry, kabsch_centred
+from ..model.camera_kernels import camera_parameters, image_jacobian
+from .stereo_kernels import camera_pose_from_features
+from .stereo_pose import check_marker_geometry
 
 if TYPE_CHECKING:
     from ..model.arm import Arm
@@ -64,6 +70,7 @@ class EyeInHand:
         self.virtual_points = flag(virtual_points, "virtual_points")
         self._markers_mean = np.add.reduce(self.markers_O, axis=0) / self.markers_O.shape[0]  # [m]
         self._markers_centred = self.markers_O - self._markers_mean  # [m], Eq. (C11) for fixed markers
+        self._params, self._lens_x = camera_parameters(camera)  # for the compiled kernels
 
     @property
     def n_features(self) -> int:
@@ -115,9 +122,14 @@ class EyeInHand:
 
         Kernel: does not validate ``q``, which must be a finite float64 (6,) array [rad].
         """
-        T_O_C, J_C = self.arm.camera_pose_and_jacobian(q)
-        P_C = self._points_in_camera(T_O_C)
-        return points_interaction_matrix(self.camera, P_C, self.virtual_points).dot(J_C)
+        return self._jacobian_at(*self.arm.camera_pose_and_jacobian(q))
+
+    def _jacobian_at(self, T_O_C: np.ndarray, J_C: np.ndarray) -> np.ndarray:
+        """L(P_C) J_C from the camera pose and its LOCAL Jacobian, one compiled call (Eq. (51))."""
+        J, bad = image_jacobian(T_O_C, J_C, self.markers_O, self._params, self._lens_x, self.virtual_points)
+        if bad >= 0:  # a depth the interaction matrix rejects: the reference raises its error
+            points_interaction_matrix(self.camera, self._points_in_camera(T_O_C), self.virtual_points)
+        return J
 
     def visibility(self, q: np.ndarray) -> Visibility:
         """Depth sign, field of view and depth range of every marker at q (ERRATA 13)."""
@@ -147,10 +159,13 @@ class EyeInHand:
         return p.reshape(n, 3)
 
     def _camera_pose_from_image(self, features: np.ndarray) -> np.ndarray:
-        p = features.reshape(features.size // 3, 3)
-        return kabsch_centred(
-            triangulate_points(self.camera, p, self.virtual_points), self._markers_centred, self._markers_mean
+        """Stereo P3P in one compiled call: ``kabsch_centred(triangulate_points(...), ...)``."""
+        T_O_C, bad = camera_pose_from_features(
+            features.reshape(-1), self._params, self.virtual_points, self._markers_centred, self._markers_mean
         )
+        if bad >= 0:  # a disparity the triangulation rejects: the reference raises its error
+            triangulate_points(self.camera, features.reshape(-1, 3), self.virtual_points)
+        return T_O_C
 
     def estimate_q(self, features: np.ndarray, q_near: np.ndarray) -> np.ndarray:
         """Joint angles q~ = F^-1(features) of Eq. (62) (6,) [rad]: the IK branch nearest to q_near.
@@ -171,3 +186,15 @@ class EyeInHand:
         of `estimate_q` on valid input (disparity, unreachable pose) are still raised.
         """
         return self.arm.ik_nearest(self._camera_pose_from_image(features), q_near)
+
+    def q_and_jacobian_from_image(
+        self, features: np.ndarray, q_near: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(q~, J(q~)): `q_from_image` and `image_jacobian` at its result, from one kinematics pass at q~.
+
+        The adaptive loop's frame (Eq. (51), (62)): the pass of the arm that checks the IK
+        branch (``Arm.ik_nearest_kinematics``) also gives T_O_C(q~) and J_C(q~). Kernel: arguments
+        as `q_from_image`, whose errors it raises.
+        """
+        q, T_O_C, J_C = self.arm.ik_nearest_kinematics(self._camera_pose_from_image(features), q_near)
+        return q, self._jacobian_at(T_O_C, J_C)

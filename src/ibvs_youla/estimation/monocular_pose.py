@@ -11,7 +11,9 @@ coplanar points: on 50 seeded views of a 20 cm square it is off by more than 1 m
 
 :func:`estimate_camera_pose` gives either camera's pose from its own features: stereo P3P
 (Appendix C) for a :class:`~ibvs_youla.model.camera.StereoCamera`, PnP for a
-:class:`~ibvs_youla.model.camera.PinholeCamera`.
+:class:`~ibvs_youla.model.camera.PinholeCamera`. :class:`CameraPoseEstimator` is the same
+function for one camera and one set of points, checked once: the controllers call it at every
+frame with the sensor's features (it checks only their shape), and get the same poses.
 """
 
 from __future__ import annotations
@@ -22,10 +24,17 @@ import numpy as np
 
 from .._validation import as_array, instance, one_of
 from ..exceptions import InvalidArrayError, InvalidParameterError, PoseEstimationError
-from ..model.camera import PinholeCamera, StereoCamera
-from .stereo_pose import check_marker_geometry, estimate_pose
+from ..model.camera import PinholeCamera, StereoCamera, triangulate_points
+from .stereo_pose import check_marker_geometry, estimate_pose, kabsch_centred
 
-__all__ = ["PNP_METHODS", "estimate_camera_pose", "estimate_pose_monocular"]
+__all__ = ["PNP_METHODS", "CameraPoseEstimator", "estimate_camera_pose", "estimate_pose_monocular"]
+
+_PNP_FLAGS = {
+    "sqpnp": "SOLVEPNP_SQPNP",
+    "epnp": "SOLVEPNP_EPNP",
+    "iterative": "SOLVEPNP_ITERATIVE",
+    "ippe": "SOLVEPNP_IPPE",
+}
 
 PNP_METHODS = ("sqpnp", "epnp", "iterative", "ippe")  # OpenCV's SOLVEPNP_* flags, by name
 
@@ -62,18 +71,27 @@ def estimate_pose_monocular(
             "features", f"an array of shape {p.shape}", f"shape ({n}, 2) or ({2 * n},): [u, v] for each point"
         )
     normalized = np.ascontiguousarray(p.reshape(n, 2) / camera.focal_length)
-    flag = {
-        "sqpnp": cv2.SOLVEPNP_SQPNP,
-        "epnp": cv2.SOLVEPNP_EPNP,
-        "iterative": cv2.SOLVEPNP_ITERATIVE,
-        "ippe": cv2.SOLVEPNP_IPPE,
-    }[method]
+    return _solve_pnp(
+        np.ascontiguousarray(P_ref), normalized, method, getattr(cv2, _PNP_FLAGS[method]), _EYE3
+    )
+
+
+_EYE3 = np.eye(3)
+_EYE3.setflags(write=False)
+
+
+def _solve_pnp(
+    P_ref: np.ndarray, normalized: np.ndarray, method: str, flag: int, K: np.ndarray
+) -> np.ndarray:
+    """T_ref_C from contiguous points P_ref (n, 3) and normalized image points (n, 2): OpenCV's solvePnP."""
+    import cv2
+
     try:
-        ok, rvec, tvec = cv2.solvePnP(np.ascontiguousarray(P_ref), normalized, np.eye(3), None, flags=flag)
+        ok, rvec, tvec = cv2.solvePnP(P_ref, normalized, K, None, flags=flag)
     except cv2.error as exc:
         raise PoseEstimationError(method, f"OpenCV solvePnP ({method}) failed: {exc}") from None
     if not ok or not (np.all(np.isfinite(rvec)) and np.all(np.isfinite(tvec))):
-        raise PoseEstimationError(method, f"OpenCV solvePnP ({method}) found no pose for {n} points")
+        raise PoseEstimationError(method, f"OpenCV solvePnP ({method}) found no pose for {len(P_ref)} points")
     R_C_ref = cv2.Rodrigues(rvec)[0]
     T = np.eye(4)
     T[:3, :3] = R_C_ref.T
@@ -94,3 +112,79 @@ def estimate_camera_pose(
     if isinstance(camera, PinholeCamera):
         return estimate_pose_monocular(camera, features, P_ref, **options)
     raise InvalidParameterError("camera", type(camera).__name__, "a StereoCamera or a PinholeCamera")
+
+
+class CameraPoseEstimator:
+    """:func:`estimate_camera_pose` for one camera and one set of points, checked once.
+
+    ``estimator(features)`` returns ``estimate_camera_pose(camera, features, P_ref, **options)``,
+    the same pose by the same computation, without re-checking the points, the camera and the
+    options at every call (a controller's pose at every frame): the triangulated points fitted
+    to the points' centred coordinates, computed once, or OpenCV's PnP on the normalized points.
+    ``features`` must be finite (as a sensor's are); only their shape is checked. Called again
+    with the same features (equal values), it returns the pose it found (a copy) without
+    solving again: two laws sharing one estimator (the hybrid law) estimate once per frame.
+
+    Args:
+        camera: A ``StereoCamera`` or a ``PinholeCamera``.
+        P_ref: The points (n, 3) in the frame ref [m] (n >= 3 for stereo, >= 4 monocular).
+        **options: ``allow_behind`` (stereo) or ``method`` (monocular), as :func:`estimate_camera_pose`.
+
+    Raises:
+        InvalidParameterError, InvalidArrayError, DegenerateMarkersError: as :func:`estimate_camera_pose`
+            for the camera, the points and the options; per call, features of another shape
+            (InvalidArrayError), and the errors of the estimate itself.
+    """
+
+    def __init__(self, camera: StereoCamera | PinholeCamera, P_ref: Any, **options: Any) -> None:
+        P = check_marker_geometry(P_ref, "P_ref")
+        n = P.shape[0]
+        self.camera = camera
+        if isinstance(camera, StereoCamera):
+            unknown = sorted(set(options) - {"allow_behind"})
+            if unknown:
+                raise InvalidParameterError("options", unknown, "allow_behind (stereo P3P)")
+            self._allow_behind = bool(options.get("allow_behind", False))
+            mean = np.add.reduce(P, axis=0) / n  # as stereo_pose.kabsch
+            self._centred, self._mean = P - mean, mean
+            self._shapes = ((n, 3), (3 * n,))
+        elif isinstance(camera, PinholeCamera):
+            import cv2
+
+            unknown = sorted(set(options) - {"method"})
+            if unknown:
+                raise InvalidParameterError("options", unknown, "method (PnP)")
+            self._method = one_of(options.get("method", "sqpnp"), "method", PNP_METHODS)
+            if n < 4:
+                raise InvalidArrayError(
+                    "P_ref", f"{n} points", "four or more points: three leave up to four poses"
+                )
+            self._flag = getattr(cv2, _PNP_FLAGS[self._method])
+            self._P = np.ascontiguousarray(P)
+            self._shapes = ((n, 2), (2 * n,))
+        else:
+            raise InvalidParameterError("camera", type(camera).__name__, "a StereoCamera or a PinholeCamera")
+        self._n = n
+        self._last: tuple[bytes, np.ndarray] | None = None  # features of the last call, its pose
+
+    def __call__(self, features: np.ndarray) -> np.ndarray:
+        """T_ref_C (4, 4) from the camera's features (3n,) or (n, 3) stereo, (2n,) or (n, 2) monocular."""
+        shape = getattr(features, "shape", None)
+        if shape not in self._shapes:
+            raise InvalidArrayError(
+                "features",
+                f"an array of shape {np.shape(features)}",
+                f"shape {self._shapes[0]} or {self._shapes[1]} for {self._n} points",
+            )
+        key = features.tobytes()
+        if self._last is not None and self._last[0] == key:
+            return self._last[1].copy()
+        n = self._n
+        if isinstance(self.camera, StereoCamera):
+            P_C = triangulate_points(self.camera, features.reshape(n, 3), self._allow_behind)
+            T = kabsch_centred(P_C, self._centred, self._mean)
+        else:
+            normalized = np.ascontiguousarray(features.reshape(n, 2) / self.camera.focal_length)
+            T = _solve_pnp(self._P, normalized, self._method, self._flag, _EYE3)
+        self._last = (key, T.copy())
+        return T

@@ -12,11 +12,13 @@ which is therefore left at zero and the damping torque ``damping * dq`` is added
 
 Every public method validates its arguments (:func:`ibvs_youla._validation.as_array`, whose
 check of a float64 array of the right shape costs about 0.5 us) and raises
-:class:`~ibvs_youla.exceptions.InvalidArrayError` if they are not valid. Four kernels do not
-check: :meth:`Arm.camera_pose_and_jacobian`, :meth:`Arm.aba`, :meth:`Arm.rnea` and
-:meth:`Arm.ik_nearest`. They are the computations behind :meth:`Arm.camera_jacobian`,
-:meth:`Arm.forward_dynamics`, :meth:`Arm.inverse_dynamics` and :meth:`Arm.ik`, called by
-those methods and by the simulator, whose arrays are valid by construction.
+:class:`~ibvs_youla.exceptions.InvalidArrayError` if they are not valid. The kernels do not
+check: :meth:`Arm.camera_fk`, :meth:`Arm.camera_pose_and_jacobian`, :meth:`Arm.aba`,
+:meth:`Arm.rnea`, :meth:`Arm.ik_nearest` and :meth:`Arm.ik_nearest_kinematics`. They are the
+computations behind :meth:`Arm.camera_pose`, :meth:`Arm.camera_jacobian`,
+:meth:`Arm.forward_dynamics`, :meth:`Arm.inverse_dynamics` and :meth:`Arm.ik`, called by those
+methods and by the simulator, whose arrays are valid by construction; so is
+:meth:`Arm.camera_jacobian_at`, the Jacobian alone in one Pinocchio call, for the actuation.
 
 One :class:`Arm` may be shared by threads: each thread computes in its own Pinocchio
 ``Data``, created from :attr:`Arm.model` on the thread's first call. An arm pickles (and
@@ -37,6 +39,7 @@ import numpy as np
 import pinocchio as pin
 
 from .._geometry import pose_error_mm_deg
+from .._linalg import add_product
 from .._validation import as_array, as_pose, non_negative, positive, text
 from ..exceptions import InvalidArrayError, InvalidParameterError, ModelLoadError, UnreachablePoseError
 from ._resources import check_chain, frame_id, load_urdf_model, urdf_path
@@ -44,13 +47,17 @@ from .actuators import ActuatorParameters
 from .ik import (
     SphericalWristParameters,
     closed_form_branches,
-    nearest_branch,
     numerical_branches,
     select_branches,
 )
+from .ik_kernels import ik_parameter_array, nearest_branch_compiled
 from .urdf_checks import check_model
 
-__all__ = ["ActuatorParameters", "Arm"]
+__all__ = ["ABA_CONVENTION", "ActuatorParameters", "Arm"]
+
+# Pinocchio 3 offers the articulated-body algorithm in two conventions, the same dynamics to
+# rounding (~1e-14 relative); the WORLD one is about 12 % faster on the IRB 4600 (benchmarks/).
+ABA_CONVENTION = pin.Convention.WORLD
 
 _N = 6
 _VEC = (_N,)  # shape of a joint vector
@@ -153,7 +160,16 @@ class Arm:
         rng = np.random.default_rng(0)
         lo, hi = np.maximum(self.q_min, -math.pi), np.minimum(self.q_max, math.pi)
         self._ik_seeds = lo + (hi - lo) * rng.random((_IK_SEEDS, _N))
-        self._q_min_list, self._q_max_list = self.q_min.tolist(), self.q_max.tolist()
+
+    @property
+    def ik_parameters(self) -> SphericalWristParameters | None:
+        """Lengths used by the closed-form IK, or None (numerical IK)."""
+        return self._ik_parameters
+
+    @ik_parameters.setter
+    def ik_parameters(self, params: SphericalWristParameters | None) -> None:
+        self._ik_parameters = params
+        self._ik_array = None if params is None else ik_parameter_array(params)  # for the compiled IK
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -337,6 +353,15 @@ class Arm:
         J_C = pin.getFrameJacobian(model, data, self._camera_id, pin.LOCAL)
         return pin.updateFramePlacement(model, data, self._camera_id).homogeneous, J_C
 
+    def camera_jacobian_at(self, q: np.ndarray) -> np.ndarray:
+        """J_C (6, 6) at q, LOCAL, from Pinocchio's ``computeFrameJacobian`` alone (no pose).
+
+        Kernel for the actuation at every joint tick (``TwistToJointVelocity``): does not validate
+        ``q``, which must be a finite float64 (6,) array [rad]. The same Jacobian as
+        :meth:`camera_jacobian` to rounding (~1e-15), in half its time.
+        """
+        return pin.computeFrameJacobian(self.model, self._thread_data.data, q, self._camera_id, pin.LOCAL)
+
     # ------------------------------------------------------------------ dynamics
     def mass_matrix(self, q: Any) -> np.ndarray:
         """M(q) = D(q) + J (6, 6), Eq. (31): CRBA with the armature, both triangles filled."""
@@ -362,12 +387,22 @@ class Arm:
     def aba(self, q: np.ndarray, dq: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """Joint accelerations ddq of Eq. (30) by the articulated-body algorithm, armature included.
 
-        Pinocchio's ABA on ``tau - damping * dq``. Kernel of `forward_dynamics`: does not
-        validate its arguments, which must be finite float64 (6,) arrays (q [rad], dq [rad/s],
-        tau [N m]). The result may be the thread's Pinocchio buffer (it depends on the Pinocchio
-        version): copy it to keep it past the next dynamics call, as `forward_dynamics` does.
+        Pinocchio's ABA (:data:`ABA_CONVENTION`) on ``tau - damping * dq``. Kernel of
+        `forward_dynamics`: does not validate its arguments, which must be finite float64 (6,)
+        arrays (q [rad], dq [rad/s], tau [N m]). The result may be the thread's Pinocchio buffer
+        (it depends on the Pinocchio version): copy it to keep it past the next dynamics call, as
+        `forward_dynamics` does.
         """
-        return pin.aba(self.model, self._thread_data.data, q, dq, tau - self.damping * dq)
+        return pin.aba(self.model, self._thread_data.data, q, dq, tau - self.damping * dq, ABA_CONVENTION)
+
+    def pinocchio_model_data(self) -> tuple[pin.Model, pin.Data]:
+        """(:attr:`model`, the calling thread's Pinocchio ``Data``), for kernels that call Pinocchio.
+
+        E.g. the plant's RK4 (:class:`~ibvs_youla.simulation.integrators.ArmRk4`), which calls
+        ``pin.aba`` (:data:`ABA_CONVENTION`) between compiled stages and applies the damping
+        itself. Use both in this thread only, and do not modify the model.
+        """
+        return self.model, self._thread_data.data
 
     def inverse_dynamics(self, q: Any, dq: Any, ddq: Any) -> np.ndarray:
         """Joint torques tau = M(q) ddq + h(q, dq) (6,) [N m], Eq. (30) (see `rnea`)."""
@@ -380,7 +415,9 @@ class Arm:
         `inverse_dynamics` (and of Eq. (33), tau = M(q) v + h(q, dq)): does not validate its
         arguments, which must be finite float64 (6,) arrays (q [rad], dq [rad/s], ddq [rad/s^2]).
         """
-        return pin.rnea(self.model, self._thread_data.data, q, dq, ddq) + self.damping * dq
+        tau = pin.rnea(self.model, self._thread_data.data, q, dq, ddq)  # a new array
+        add_product(tau, self.damping, dq)  # + damping * dq, in one compiled call
+        return tau  # type: ignore[no-any-return]
 
     def kinetic_energy(self, q: Any, dq: Any) -> float:
         """0.5 dq^T M(q) dq [J], rotor (armature) energy included."""
@@ -443,16 +480,31 @@ class Arm:
         Kernel: does not validate its arguments. ``T_O_C`` must be a rigid (4, 4) float pose
         (e.g. from stereo P3P, orthonormal to rounding, so the projection onto SO(3) of :meth:`ik`
         is skipped) and ``q_near`` a finite float (6,) array [rad]. With the closed form, the
-        nearest in-limit branch (:func:`~ibvs_youla.model.ik.nearest_branch`) is returned if it
-        passes the pose check of :meth:`ik`; any other case (no closed form, nearest branch
-        rejected, no branch) is delegated to :meth:`ik`, which also raises its errors.
+        nearest in-limit branch (:func:`~ibvs_youla.model.ik.nearest_branch`, compiled:
+        :mod:`~ibvs_youla.model.ik_kernels`) is returned if it passes the pose check of :meth:`ik`;
+        any other case (no closed form, nearest branch rejected, no branch) is delegated to
+        :meth:`ik`, which also raises its errors.
         """
-        if self.ik_parameters is not None:
-            T_O_E = T_O_C.dot(self._T_C_E)
-            q = nearest_branch(self.ik_parameters, T_O_E, self._q_min_list, self._q_max_list, q_near.tolist())
-            if q is not None:
-                q = np.array(q)
-                d = (self.camera_fk(q) - T_O_C).ravel()
+        return self.ik_nearest_kinematics(T_O_C, q_near)[0]
+
+    def ik_nearest_kinematics(
+        self, T_O_C: np.ndarray, q_near: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(q, T_O_C(q), J_C(q)): :meth:`ik_nearest`, and :meth:`camera_pose_and_jacobian` at q.
+
+        Both from the one kinematics pass that checks the IK branch (the kinematics computed once
+        per configuration).
+
+        Kernel: arguments as :meth:`ik_nearest`.
+        """
+        if self._ik_array is not None:
+            found, q = nearest_branch_compiled(
+                self._ik_array, T_O_C, self._T_C_E, self.q_min, self.q_max, q_near, 1e-9
+            )
+            if found:
+                T_q, J_C = self.camera_pose_and_jacobian(q)
+                d = (T_q - T_O_C).ravel()
                 if d.dot(d) <= _IK_TOL**2 or np.abs(d).max() <= _IK_TOL:  # the first implies the second
-                    return q
-        return self.ik(T_O_C, q_near=q_near)[0]
+                    return q, T_q, J_C
+        q = self.ik(T_O_C, q_near=q_near)[0]
+        return (q, *self.camera_pose_and_jacobian(q))

@@ -28,6 +28,7 @@ import numpy as np
 
 from ..control.inner import InnerLoopDesign
 from ..control.singular_values import SingularValuePolicy
+from ..control.svd_kernels import pseudo_inverse_apply
 from ..controllers.base import CommandType, JointReading
 from ..exceptions import IncompatibleCommandError
 
@@ -59,10 +60,22 @@ class TwistToJointVelocity:
     def __init__(self, arm: Any, policy: SingularValuePolicy | None = None) -> None:
         self._arm = arm
         self._policy = SingularValuePolicy() if policy is None else policy
+        self._damped, self._threshold = self._policy.kind == "damped", self._policy.threshold
 
     def __call__(self, twist: np.ndarray, reading: JointReading) -> np.ndarray:
-        """dq_ref (n,) [rad/s] for the twist [v; w] (6,) in the camera frame at the encoder reading."""
-        return self._policy.pseudo_inverse(self._arm.camera_jacobian(reading.q)) @ twist
+        """dq_ref (n,) [rad/s] for the twist [v; w] (6,) in the camera frame at the encoder reading.
+
+        The encoders are the plant's (finite): J_C comes from the arm's kernel, and J_C^+ [v; w]
+        from one compiled call (:func:`~ibvs_youla.control.svd_kernels.pseudo_inverse_apply`) when
+        the twist is a float (6,) array, else (or when the SVD fails) from the reference
+        ``policy.pseudo_inverse(J_C) @ twist``.
+        """
+        J_C = self._arm.camera_jacobian_at(reading.q)
+        if getattr(twist, "shape", None) == (6,) and twist.dtype == np.float64:
+            dq_ref, ok = pseudo_inverse_apply(J_C, twist, self._damped, self._threshold)
+            if ok:
+                return dq_ref  # type: ignore[no-any-return]
+        return self._policy.pseudo_inverse(J_C) @ twist
 
 
 class VelocityToPosition:
@@ -98,12 +111,12 @@ class InnerLoopActuator:
 
     def __init__(self, arm: Any, tau_in: float, dt: float) -> None:
         self._inner = InnerLoopDesign(tau_in).discrete_controller(dt, arm.nq)
-        self._step, self._rnea = self._inner.step, arm.rnea  # bound once: called at every tick
+        self._step, self._rnea = self._inner.step_difference, arm.rnea  # bound once: called at every tick
 
     def __call__(self, q_ref: np.ndarray, reading: JointReading) -> np.ndarray:
         """Tau = M(q) G_C(z)[q_ref - q] + h(q, dq) (n,) [N m], from one RNEA pass."""
         q, dq = reading.q, reading.dq
-        return self._rnea(q, dq, self._step(q_ref - q))
+        return self._rnea(q, dq, self._step(q_ref, q))
 
 
 def actuation_chain(

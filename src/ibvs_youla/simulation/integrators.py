@@ -10,7 +10,7 @@ digital joint controller would hold them), so the integrated right-hand side is
 smooth inside the step and the fourth order holds step by step. A torque that
 changes *within* a step (a continuous-time controller) is not what this models.
 
-Two entry points:
+Three entry points:
 
 * :func:`rk4_step` — generic, for any ODE ``dx/dt = f(t, x)`` on a flat state vector.
 * :func:`rk4_arm_step` — specialised for a joint-space arm ``ddq = FD(q, dq, tau)``
@@ -18,17 +18,27 @@ Two entry points:
   autonomous for a held torque), four forward-dynamics calls per step, the stage
   derivatives in a reusable scratch array. Joint coordinates are added directly
   (``q + dt * dq``), which is exact for revolute and prismatic joints (configuration
-  space R^n), the case of the IRB 4600. It is the plant's integrator
-  (:class:`~ibvs_youla.simulation.plant.ArmPlant`) and does not validate its arguments.
+  space R^n), the case of the IRB 4600. It does not validate its arguments.
+* :class:`ArmRk4` — :func:`rk4_arm_step` of an :class:`~ibvs_youla.model.arm.Arm`'s
+  ``forward_dynamics``, the plant's integrator (:class:`~ibvs_youla.simulation.plant.ArmPlant`):
+  Pinocchio's ABA four times, and between the calls one compiled kernel
+  (:func:`ibvs_youla._jit.jit`) that stores the stage derivative and forms the next stage's
+  state and torque ``tau - damping * dq``; the last one also forms x + dt (k1 + 2 k2 + 2 k3 +
+  k4) / 6 and tests it against the plant's divergence bounds. The same stages, none skipped.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
+import pinocchio as pin
 
-__all__ = ["rk4_arm_step", "rk4_step"]
+from .._jit import jit
+from ..model.arm import ABA_CONVENTION
+
+__all__ = ["ArmRk4", "rk4_arm_step", "rk4_step"]
 
 OdeRhs = Callable[[float, np.ndarray], np.ndarray]
 ForwardDynamics = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
@@ -110,3 +120,82 @@ def rk4_arm_step(
     k[3, :n] = v = y[n:]
     k[3, n:] = forward_dynamics(y[:n], v, tau)
     return x + (dt * _RK4_WEIGHTS).dot(k)
+
+
+# Rows of ArmRk4's work array W (10, 2n): the stage derivatives k1..k4, the state at the start of
+# the step, the stage state [q; dq], [tau - damping * dq; tau], [damping; 0], the bounds of x.
+_K, _X, _STAGE, _TAU, _DAMPING, _LOW, _HIGH = 0, 4, 5, 6, 7, 8, 9
+
+
+@jit
+def rk4_begin(W: np.ndarray, x: np.ndarray, tau: np.ndarray) -> None:
+    """Start a step from x = [q; dq] with tau held: the first stage's state, torque and k1's dq part."""
+    n = x.shape[0] // 2
+    for j in range(2 * n):
+        W[_X, j] = x[j]
+        W[_STAGE, j] = x[j]
+    for j in range(n):
+        W[_TAU, n + j] = tau[j]
+        W[_TAU, j] = tau[j] - W[_DAMPING, j] * x[n + j]
+        W[_K, j] = x[n + j]
+
+
+@jit
+def rk4_stage(W: np.ndarray, ddq: np.ndarray, i: int, dt: float) -> None:
+    """Store stage i's accelerations (i = 0, 1, 2), then form stage i + 1's state and torque."""
+    n = ddq.shape[0]
+    c = 0.5 * dt if i < 2 else dt
+    for j in range(n):
+        W[_K + i, n + j] = ddq[j]
+    for j in range(2 * n):
+        W[_STAGE, j] = W[_X, j] + c * W[_K + i, j]
+    for j in range(n):
+        v = W[_STAGE, n + j]
+        W[_K + i + 1, j] = v
+        W[_TAU, j] = W[_TAU, n + j] - W[_DAMPING, j] * v
+
+
+@jit
+def rk4_end(W: np.ndarray, ddq: np.ndarray, dt: float, x: np.ndarray) -> bool:
+    """Store k4; write x = x0 + dt (k1 + 2 k2 + 2 k3 + k4) / 6 and return whether it is within bounds."""
+    n = ddq.shape[0]
+    for j in range(n):
+        W[_K + 3, n + j] = ddq[j]
+    w0, w1 = dt * (1.0 / 6.0), dt * (2.0 / 6.0)  # dt * _RK4_WEIGHTS
+    inside = True
+    for j in range(2 * n):
+        x[j] = W[_X, j] + (w0 * W[_K, j] + w1 * W[_K + 1, j] + w1 * W[_K + 2, j] + w0 * W[_K + 3, j])
+        inside = inside and W[_LOW, j] <= x[j] <= W[_HIGH, j]  # NaN is outside
+    return inside
+
+
+class ArmRk4:
+    """One RK4 step of an arm's dynamics, torque held: :func:`rk4_arm_step` with ``arm.aba``.
+
+    Args:
+        arm: The arm (``damping``, ``pinocchio_model_data()``: Pinocchio's ABA includes the
+            armature; the damping torque is applied here, as ``arm.aba`` does).
+        x_low, x_high: Bounds (2n,) of the packed state [q; dq] that :meth:`step` tests.
+    """
+
+    def __init__(self, arm: Any, x_low: np.ndarray, x_high: np.ndarray) -> None:
+        self._arm = arm
+        n = len(arm.damping)
+        self._W = W = np.zeros((10, 2 * n))
+        W[_DAMPING, :n] = arm.damping
+        W[_LOW], W[_HIGH] = x_low, x_high
+        self._q, self._dq, self._tau = W[_STAGE, :n], W[_STAGE, n:], W[_TAU, :n]  # views fed to the ABA
+
+    def step(self, x: np.ndarray, tau: np.ndarray, dt: float) -> tuple[np.ndarray, bool]:
+        """(x at t + dt, within the bounds) from x = [q; dq] (2n,) at t, torque tau (n,) held [N m].
+
+        Unvalidated: finite float arrays; the result is a new array (x is not modified).
+        """
+        model, data = self._arm.pinocchio_model_data()
+        W, q, dq, tau_stage, world = self._W, self._q, self._dq, self._tau, ABA_CONVENTION
+        rk4_begin(W, x, tau)
+        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world), 0, dt)
+        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world), 1, dt)
+        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world), 2, dt)
+        x_next = np.empty(x.shape[0])  # a new array (cheaper than one returned by compiled code)
+        return x_next, rk4_end(W, pin.aba(model, data, q, dq, tau_stage, world), dt, x_next)

@@ -25,6 +25,7 @@ non-finite command or state raises SimulationDivergedError.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -86,7 +87,7 @@ class KinematicArmPlant:
         self.dt = positive(dt, "dt", unit="s")
         q0 = as_array(q_encoder, "q_encoder", (n,))
         # At rest with output q0: x = q0 / C[0] * e1 (equilibrium of the controllable form)
-        self._x = np.outer(np.array([1.0, 0.0, 0.0]) * tau_in**3, q0)
+        self._x: np.ndarray | None = np.outer(np.array([1.0, 0.0, 0.0]) * tau_in**3, q0)
         self._q = q0 + d
         self._dq = np.zeros(n)
         self.t = 0.0
@@ -123,7 +124,8 @@ class KinematicArmPlant:
     def apply(self, command: np.ndarray, dt: float) -> None:
         """Hold ``command`` over ``dt``: a joint velocity or a position reference (see :meth:`use_input`)."""
         command_type = self.input_type
-        if not np.all(np.isfinite(command)):
+        square = float(np.dot(command, command))  # finite when every entry is (or an overflow: then look)
+        if not math.isfinite(square) and not np.all(np.isfinite(command)):
             raise SimulationDivergedError(
                 self.t,
                 "command",
@@ -135,11 +137,14 @@ class KinematicArmPlant:
         if command_type is CommandType.JOINT_VELOCITY:
             self._q = self._q + command * dt
             self._dq = np.array(command, dtype=float)
-            # keep the position loop's state consistent with the new position at rest
-            self._x = np.outer(np.array([1.0, 0.0, 0.0]) * (1.0 / self._C[0]), self._q - self.joint_offset)
+            self._x = None  # the position loop's state: at rest at the new position, made when needed
         else:
             if abs(dt - self.dt) > 1e-12 * self.dt:
                 raise InvalidParameterError("dt", dt, f"the period the plant was built for, {self.dt:g} s")
+            if self._x is None:  # after joint velocities: the position loop at rest where the arm is
+                self._x = np.outer(
+                    np.array([1.0, 0.0, 0.0]) * (1.0 / self._C[0]), self._q - self.joint_offset
+                )
             self._x = self._Ad @ self._x + np.outer(self._Bd, command)
             self._q = self._C @ self._x + self.joint_offset
             self._dq = self._CA @ self._x

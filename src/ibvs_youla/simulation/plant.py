@@ -45,7 +45,7 @@ import numpy as np
 from .._validation import as_array, flag, instance, positive, real
 from ..controllers.base import CommandType, JointReading
 from ..exceptions import InvalidParameterError, SimulationDivergedError
-from .integrators import rk4_arm_step
+from .integrators import ArmRk4
 
 __all__ = ["ArmPlant", "DivergenceBounds"]
 
@@ -140,8 +140,7 @@ class ArmPlant:
         margin = self.bounds.position_margin
         self._x_low = np.concatenate([self._q_min - margin, -self._dq_bound])  # packed [q; dq] bounds
         self._x_high = np.concatenate([self._q_max + margin, self._dq_bound])
-        self._k = np.empty((4, 2 * n))  # RK4 stage derivatives of `apply`
-        self._aba = arm.aba  # the kernel of arm.forward_dynamics
+        self._rk4 = ArmRk4(arm, self._x_low, self._x_high)  # RK4 of arm.forward_dynamics, bounds tested
         self._camera_fk = arm.camera_fk  # the kernel of arm.camera_pose: the state is always finite
         q_encoder = np.zeros(n) if q_encoder is None else q_encoder
         self.reset(q_encoder, np.zeros(n) if dq is None else dq, t=t)
@@ -209,18 +208,16 @@ class ArmPlant:
         The kernel of :meth:`step`, called by the servo loop at every tick: it does not
         validate its arguments (``command`` a float (n,) array, possibly non-finite, ``dt`` >
         0). The caller holds ``np.errstate(all="ignore")`` (the servo loop does). The
-        divergence test is one vectorized comparison of the packed state with its bounds
-        (NaN fails it); only when it fails are the quantities examined, in the order of the
-        module docstring, to raise SimulationDivergedError with the state left at the start
-        of the step.
+        divergence test is one comparison of the packed state with its bounds, inside the
+        compiled end of the RK4 step (NaN fails it); only when it fails are the quantities
+        examined, in the order of the module docstring, to raise SimulationDivergedError with
+        the state left at the start of the step.
         """
         tau = command
         if self.saturate_torque:
             tau = np.clip(tau, -self._tau_max, self._tau_max)
-        x = rk4_arm_step(self._aba, self._x, tau, dt, self._k)
-        ok = x >= self._x_low
-        ok &= x <= self._x_high
-        if not ok.all():
+        x, inside = self._rk4.step(self._x, tau, dt)
+        if not inside:
             if not np.all(np.isfinite(tau)):
                 self._diverged(self.t, "tau", tau, "finite values")
             self._check(self.t + dt, x[: self._n], x[self._n :])

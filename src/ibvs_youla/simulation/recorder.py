@@ -1,24 +1,76 @@
 """Recording a servo run: preallocated tick buffers and a frame log, turned into a result at any time.
 
-:class:`ResultRecorder` fills preallocated arrays one tick sample at a time (amortised O(1):
-the buffers double when a run is longer than announced) and appends each camera frame to
-its log. :meth:`ResultRecorder.result` copies what was recorded so far, so a run that stops
-early (diverged, markers lost, interrupted) keeps every finished sample.
+:class:`ResultRecorder` fills a preallocated table one tick sample (one row) at a time
+(amortised O(1): the table doubles when a run is longer than announced) and appends each
+camera frame to its log. :meth:`ResultRecorder.result` copies what was recorded so far, so a
+run that stops early (diverged, markers lost, interrupted) keeps every finished sample.
+
+A row is [t, camera pose (16), features (m), visibility (n, as 0/1), each signal flattened].
+:func:`record_row` writes one in a compiled call (:func:`ibvs_youla._jit.jit`) when every
+part has its announced size; anything else takes the checked path of :meth:`ResultRecorder.record`,
+which names the part whose shape is wrong (the reference the compiled call is pinned to).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from itertools import pairwise
+from math import prod
 from typing import Any
 
 import numpy as np
 
+from .._jit import COMPILE_ERRORS, jit
 from .._validation import as_array, as_pose
 from ..exceptions import InvalidArrayError, InvalidParameterError
 from .results import STATUSES, SimulationResult, normalise_metadata
 
-__all__ = ["ResultRecorder"]
+__all__ = ["ResultRecorder", "record_row"]
+
+
+@jit
+def record_row(
+    table: np.ndarray,
+    i: int,
+    t: float,
+    camera_pose: np.ndarray,
+    features: np.ndarray,
+    visible: np.ndarray,
+    values: Any,
+    sizes: np.ndarray,
+) -> bool:
+    """Write row i of ``table``: t, the pose, features, visibility and ``values`` (a tuple of arrays).
+
+    ``sizes`` holds the sizes of features, visibility and each value; returns False, having
+    possibly written part of the row, when a part has another size (the pose must be 4x4).
+    """
+    row = table[i]
+    if camera_pose.shape[0] != 4 or camera_pose.shape[1] != 4 or features.size != sizes[0]:
+        return False
+    if visible.size != sizes[1] or len(values) != sizes.shape[0] - 2:
+        return False
+    row[0] = t
+    c = 1
+    for a in range(4):
+        for b in range(4):
+            row[c] = camera_pose[a, b]
+            c += 1
+    for x in features.flat:
+        row[c] = x
+        c += 1
+    for x in visible.flat:
+        row[c] = 1.0 if x else 0.0
+        c += 1
+    j = 2
+    for value in values:
+        if value.size != sizes[j]:
+            return False
+        for x in value.flat:
+            row[c] = x
+            c += 1
+        j += 1
+    return c == row.shape[0]
 
 
 class ResultRecorder:
@@ -60,14 +112,14 @@ class ResultRecorder:
         self.metadata = normalise_metadata(metadata)
         self.signal_names = tuple(shapes)
         capacity, m, n = int(capacity), self.feature_target.shape[0], int(n_points)
-        self._tick = {
-            "t": np.empty(capacity),
-            "camera_pose": np.empty((capacity, 4, 4)),
-            "features": np.empty((capacity, m)),
-            "visible": np.empty((capacity, n), dtype=bool),
-        }
-        self._signals = [np.empty((capacity, *shape)) for shape in shapes.values()]
         self._shapes = list(shapes.values())
+        sizes = [m, n, *(prod(shape) for shape in self._shapes)]
+        # column slices of the table: t, pose, features, visible, then each signal
+        edges = np.cumsum([0, 1, 16, *sizes]).tolist()
+        self._columns = [slice(a, b) for a, b in pairwise(edges)]
+        self._table = np.empty((capacity, edges[-1]))
+        self._sizes = np.array(sizes, dtype=np.int64)
+        self._compiled = all(len(shape) == 1 for shape in self._shapes)  # the fast path's values are 1-D
         self._n = 0
         # The frame log is appended to lists (a list append costs a tenth of a numpy row write)
         # and stacked in `result`: a frame's features and visibility are new arrays every frame
@@ -102,28 +154,41 @@ class ResultRecorder:
             InvalidArrayError: a value whose shape is not the signal's (no silent broadcast).
         """
         i = self._n
-        tick = self._tick
-        if i == tick["t"].shape[0]:
-            for name, buf in tick.items():
-                tick[name] = np.concatenate([buf, np.empty_like(buf)])
-            self._signals = [np.concatenate([buf, np.empty_like(buf)]) for buf in self._signals]
-        if len(values) != len(self._signals):
+        if i == self._table.shape[0]:
+            self._table = np.concatenate([self._table, np.empty_like(self._table)])
+        if len(values) != len(self._shapes):
             raise InvalidParameterError(
                 "values", f"{len(values)} signals", f"one per name of {self.signal_names}"
             )
-        tick["t"][i] = t
-        tick["camera_pose"][i] = camera_pose
-        tick["features"][i] = features
-        tick["visible"][i] = visible
-        for j, (buf, shape, value) in enumerate(zip(self._signals, self._shapes, values)):  # noqa: B905
-            if getattr(value, "shape", None) != shape and np.shape(value) != shape:  # cheap for arrays
+        if self._compiled:
+            try:
+                values = values if type(values) is tuple else tuple(values)
+                done = record_row(self._table, i, t, camera_pose, features, visible, values, self._sizes)
+            except COMPILE_ERRORS:  # a part that is not an array (e.g. a float): checked below, always
+                self._compiled = done = False
+            if done:
+                self._n = i + 1
+                return
+        self._record_checked(i, t, camera_pose, features, visible, values)
+        self._n = i + 1
+
+    def _record_checked(
+        self, i: int, t: float, camera_pose: Any, features: Any, visible: Any, values: Sequence[Any]
+    ) -> None:
+        """Row i, part by part, each shape checked (what :func:`record_row` does in one call)."""
+        row, columns = self._table[i], self._columns
+        row[0] = t
+        row[columns[1]] = np.reshape(camera_pose, 16)
+        row[columns[2]] = features
+        row[columns[3]] = visible
+        for j, (shape, value) in enumerate(zip(self._shapes, values)):  # noqa: B905
+            if getattr(value, "shape", None) != shape and np.shape(value) != shape:  # no silent broadcast
                 raise InvalidArrayError(
                     f"signal {self.signal_names[j]!r}",
                     f"a value of shape {np.shape(value)}",
                     f"shape {shape}",
                 )
-            buf[i] = value
-        self._n = i + 1
+            row[columns[4 + j]] = np.reshape(value, -1)
 
     def record_frame(self, t: float, features: np.ndarray, visible: Any, update_time: float) -> None:
         """Append one camera frame: capture time [s], features, visibility, control-update time [s].
@@ -150,13 +215,20 @@ class ResultRecorder:
             raise InvalidParameterError("status", status, " or ".join(repr(s) for s in STATUSES))
         n = self._n
         frame_t, frame_features, frame_visible, update_times = self._frames
-        m, n_features, n_points = len(frame_t), self.feature_target.shape[0], self._tick["visible"].shape[1]
+        m, n_features, n_points = len(frame_t), self.feature_target.shape[0], int(self._sizes[1])
         metadata = {**self.metadata, **normalise_metadata(extra_metadata), "status": status}
+        table, columns = self._table[:n], self._columns
         return SimulationResult(
-            **{name: buf[:n] for name, buf in self._tick.items()},
+            t=table[:, 0],
+            camera_pose=table[:, columns[1]].reshape(n, 4, 4),
+            features=table[:, columns[2]],
+            visible=table[:, columns[3]] != 0.0,
             feature_target=self.feature_target,
             camera_pose_target=self.camera_pose_target,
-            signals={name: buf[:n] for name, buf in zip(self.signal_names, self._signals, strict=True)},
+            signals={
+                name: table[:, column].reshape(n, *shape)
+                for name, column, shape in zip(self.signal_names, columns[4:], self._shapes, strict=True)
+            },
             frame_t=np.array(frame_t, dtype=float),
             frame_features=np.array(frame_features, dtype=float).reshape(m, n_features),
             frame_visible=np.array(frame_visible, dtype=bool).reshape(m, n_points),

@@ -21,7 +21,8 @@ from .._validation import as_pose, flag
 from ..controllers.base import CameraFrame
 from ..estimation.stereo_pose import check_marker_geometry
 from ..exceptions import InvalidParameterError
-from ..model.camera import PinholeCamera, StereoCamera, project_points, visible_points
+from ..model.camera import PinholeCamera, StereoCamera, project_points
+from ..model.camera_kernels import camera_parameters, measure_features
 
 __all__ = ["MarkerSensor"]
 
@@ -57,6 +58,7 @@ class MarkerSensor:
         self.markers_O = markers.copy()
         self.markers_O.setflags(write=False)
         self.virtual_points = flag(virtual_points, "virtual_points")
+        self._params, self._lens_x = camera_parameters(camera)  # for the compiled projection
 
     @property
     def n_points(self) -> int:
@@ -85,5 +87,7 @@ class MarkerSensor:
             PointBehindCameraError: a marker at Z_C <= 0 (at |Z_C| ~ 0 with virtual points).
         """
         P_C = self.points_in_camera(T_O_C)
-        features = project_points(self.camera, P_C, self.virtual_points)
-        return CameraFrame(t, features, np.array(visible_points(self.camera, P_C)))
+        features, visible, bad = measure_features(P_C, self._params, self._lens_x, self.virtual_points)
+        if bad >= 0:  # a depth the projection rejects: the reference raises its error
+            project_points(self.camera, P_C, self.virtual_points)
+        return CameraFrame(t, features, visible)

@@ -1,0 +1,279 @@
+"""The tables of ``benchmarks/README.md``, made from the JSON reports in ``benchmarks/reports/``.
+
+Each table is a function of one report (or none, when it is missing); :func:`update_readme`
+rewrites every block of the README between ``<!-- figures:NAME -->`` and ``<!-- /figures:NAME -->``
+with the table NAME, so that the README's figures are always those of the reports beside it
+(``run_all.py`` calls it after the benchmarks). Prose around the blocks is not touched.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+Report = dict[str, Any]
+
+
+def _num(x: Any, digits: int = 1) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "n/a"
+    return f"{x:,.{digits}f}"
+
+
+def _met(flag: Any) -> str:
+    return "**met**" if flag is True else "**not met**" if flag is False else "n/a"
+
+
+def _when(r: Report) -> str:
+    m = r.get("machine", {})
+    load = m.get("load_average") or [m.get("load_average_1min")]
+    other = r.get("cpu", {}).get("other_cores")
+    versions = m.get("versions", {})
+    pkgs = ", ".join(
+        f"{k} {v}" for k, v in versions.items() if k in ("python", "numpy", "scipy", "pin", "numba")
+    )
+    busy = "" if other is None else f"; other jobs used {other:.2f} of the {m.get('cores')} cores meanwhile"
+    return (
+        f"{m.get('date', '?')}, {m.get('cpu', '?')} ({m.get('cores', '?')} cores), load average "
+        f"{' / '.join(_num(x, 2) for x in load)} (1/5/15 min){busy}; {pkgs}; compiled kernels "
+        f"{'on' if m.get('compiled_kernels') else 'off'}"
+    )
+
+
+def outer_loop(r: Report) -> str:
+    """The update, its floor and its parts."""
+    s = r["stats"]
+    rows = [
+        "| | median [us] | p95 [us] |",
+        "| --- | ---: | ---: |",
+        f"| **update** (sensor + `YoulaController.update`) | **{_num(r['update_median_us'])}** | "
+        f"{_num(r['update_p95_us'])} |",
+    ]
+    labels = {
+        "camera_pose": "true camera pose (forward kinematics, checked `Arm.camera_pose`)",
+        "sensor": "sensor: P_C, features and visibility (one compiled call)",
+        "p3p": "stereo P3P: triangulation + Kabsch with its 3x3 SVD (compiled)",
+        "ik": "nearest IK branch (compiled) + one Pinocchio pass at q~ (check, T_O_C, J_C)",
+        "jacobian": "L(P_C) J_C (compiled)",
+        "svd_gains": "9x6 SVD, gains, P e (compiled, LAPACK dgesdd)",
+        "state_update": "filter step q_fb = K(z)[P e]",
+    }
+    for name, label in labels.items():
+        if name in s:
+            rows.append(f"| {label} | {_num(s[name]['median_us'], 2)} | {_num(s[name]['p95_us'], 2)} |")
+    rows.append(f"| the calls between the parts (update - parts) | {_num(r.get('glue_median_us'), 2)} | |")
+    floor = " + ".join(
+        f"{n} {_num(s[n]['median_us'], 2)}" for n in ("fk", "frame_jacobian", "svd_9x6", "svd_3x3")
+    )
+    rows.append(f"| **floor** ({floor}) | **{_num(r['floor_median_us'], 2)}** | |")
+    target = r.get("target", {})
+    rows.append(
+        f"| **ratio update / floor** (target <= {target.get('ratio_to_floor_max', 2.5)}) | "
+        f"**{_num(r['ratio_to_floor'], 2)}** {_met(target.get('met'))} | |"
+    )
+    for name, label in (
+        ("svd_9x6_compiled", "9x6 dgesdd through the compiled call, from Python"),
+        ("svd_3x3_compiled", "3x3 dgesdd through the compiled call, from Python"),
+        ("svd_9x6_numpy", "9x6 `np.linalg.svd`"),
+    ):
+        if name in s:
+            rows.append(f"| (for comparison) {label} | {_num(s[name]['median_us'], 2)} | |")
+    rows.append(
+        f"| literal python-control rebuild of Eq. (58)-(61) | {_num(r['rebuild_median_us'] / 1e3, 2)} ms | "
+        f"{_num(r['rebuild_ratio'], 0)}x the update |"
+    )
+    settings = r["settings"]
+    return (
+        "\n".join(rows)
+        + f"\n\n{settings['configs']} configurations x {settings['repeats']} rounds. Measured {_when(r)}.\n"
+    )
+
+
+def simulation(r: Report) -> str:
+    """Realtime factors of the paper's scenarios and of classical IBVS, with the targets."""
+    targets = r.get("targets", {})
+    mins = targets.get("min_realtime_factor", {"paper": 20.0, "two-rate": 50.0, "classical": 1000.0})
+    met = targets.get("met", {})
+    rows = [
+        "| run | realtime factor | target | plant [us/tick] | camera frame [us/frame] "
+        "| tick control [us/tick] |",
+        "| --- | ---: | --- | ---: | ---: | ---: |",
+    ]
+    for name, factors in r["realtime_factor"].items():
+        for label, factor in factors.items():
+            split = r["cases"][f"{name}/{label}"]["split"]
+            rate = "1 kHz / 1 kHz" if label == "paper" else "1 kHz / 100 Hz"
+            rows.append(
+                f"| {name}, ff+fb adaptive, dynamic arm, {rate} | **{_num(factor)}x** | >= {mins[label]:g}x "
+                f"{_met(met.get(label, {}).get(name))} | {_num(split['dynamics_us_per_step'])} | "
+                f"{_num(split['outer_us_per_frame'])} | {_num(split['joint_control_us_per_step'])} |"
+            )
+    for name, c in r.get("classical", {}).items():
+        split = c["split"]
+        rows.append(
+            f"| ibvs-current, {name}, 25 Hz | **{_num(c['realtime_factor'], 0)}x** | "
+            f">= {mins['classical']:g}x "
+            f"{_met(met.get('classical', {}).get(name))} | {_num(split['dynamics_us_per_step'])} | "
+            f"{_num(split['outer_us_per_frame'])} | {_num(split['joint_control_us_per_step'])} |"
+        )
+    settings = r["settings"]
+    return (
+        "\n".join(rows)
+        + f"\n\nMedian of {settings['repeats']} runs of {settings['duration_s']:g} s (paper scenarios) and "
+        f"{settings.get('classical_duration_s', 20):g} s (classical IBVS). Measured {_when(r)}.\n"
+    )
+
+
+def controllers(r: Report) -> str:
+    """One control update of every method, on both cases."""
+    rows = [
+        "| method | mono: median / p95 [us] | floor [us] | ratio | stereo: median / p95 [us] "
+        "| floor [us] | ratio |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    mono, stereo = r["cases"]["mono"]["methods"], r["cases"]["stereo"]["methods"]
+    for name in r["controllers"]:
+        cells = []
+        for case in (mono, stereo):
+            e = case.get(name)
+            if e is None:
+                cells.append("stereo and arm only | | ")
+            else:
+                cells.append(
+                    f"{_num(e['median_us'])} / {_num(e['p95_us'])} | {_num(e['floor_us'])} | "
+                    f"{_num(e['ratio_to_floor'])}"
+                )
+        rows.append(f"| `{name}` | {' | '.join(cells)} |")
+    settings = r["settings"]
+    return (
+        "\n".join(rows)
+        + f"\n\n{settings['configs']} configurations x {settings['repeats']} rounds per case. "
+        f"Measured {_when(r)}.\n"
+    )
+
+
+def campaign(r: Report) -> str:
+    """Runs per minute on 1 and 2 Dask workers, scaling, overhead, and the campaign sizings."""
+    rows = [
+        "| campaign | runs | serial [runs/min] | 1 worker [runs/min] | overhead | 2 workers [runs/min] "
+        "| overhead | scaling 2/1 |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    for name, c in r["campaigns"].items():
+        w1, w2 = c["workers"]["1"], c["workers"]["2"]
+        rows.append(
+            f"| {name}: {c['family']}, {len(c['methods'])} methods, {c['duration']:g} s, {c['plant']} "
+            f"| {c['runs']} | "
+            f"{_num(c['serial']['runs_per_minute'], 0)} | {_num(w1['runs_per_minute'], 0)} | "
+            f"{_num(100 * w1['overhead_share'])} % | {_num(w2['runs_per_minute'], 0)} | "
+            f"{_num(100 * w2['overhead_share'])} % | **{_num(c['scaling'], 2)}** |"
+        )
+    p, met, targets = r["projection"], r["targets"]["met"], r["targets"]
+    sizing = [
+        "",
+        "| 1,000 cases x 7 methods, 20 s runs | 1 worker [min] | 2 workers [min] | target |",
+        "| --- | ---: | ---: | --- |",
+        f"| free camera ({p['free_1000x7_minutes_at_duration_s']:g} s runs) | "
+        f"{_num(p['free_1000x7_minutes']['1'])} | "
+        f"**{_num(p['free_1000x7_minutes']['2'])}** | < {targets['free_1000x7_minutes_max']:g} "
+        f"{_met(met['free_1000x7_minutes'])} |",
+    ]
+    if "arm_1000x7_minutes" in p:
+        sizing.append(
+            f"| dynamic arm, 1 kHz / 100 Hz ({p['arm_1000x7_minutes_at_duration_s']:g} s runs), "
+            "the seven twist "
+            f"methods | {_num(p['arm_1000x7_minutes']['1'])} | **{_num(p['arm_1000x7_minutes']['2'])}** | "
+            f"< {targets.get('arm_1000x7_minutes_max', 30):g} {_met(met.get('arm_1000x7_minutes'))} |"
+        )
+        sizing.append(
+            f"| dynamic arm, the nine-method mix | {_num(p['arm_1000x7_all_methods_minutes']['1'])} | "
+            f"{_num(p['arm_1000x7_all_methods_minutes']['2'])} | |"
+        )
+    per_method = p.get("arm_run_s_by_method")
+    if per_method:
+        sizing.append("")
+        sizing.append(
+            "Median run on the arm [ms]: "
+            + ", ".join(f"`{k}` {_num(1e3 * v, 0)}" for k, v in per_method.items())
+            + "."
+        )
+    s = r["settings"]
+    return (
+        "\n".join(rows + sizing)
+        + f"\n\n{s['cases']} free cases, {s['arm_cases']} arm cases, {s['repeats']} repeat(s). "
+        f"Measured {_when(r)}.\n"
+    )
+
+
+def history(reports: dict[str, Report | None]) -> str:
+    """The last runs' headline figures, from each report's history."""
+    rows = [
+        "| date (UTC) | load 1 min | update / floor | paper-1 1 kHz/1 kHz | paper-1 1 kHz/100 Hz |",
+        "| --- | ---: | ---: | ---: | ---: |",
+    ]
+    outer = (reports.get("outer_loop") or {}).get("history", [])
+    sim = {h.get("date", "")[:16]: h for h in (reports.get("simulation") or {}).get("history", [])}
+    for h in outer[-10:]:
+        date = (h.get("date") or "?")[:16]
+        s = sim.get(date, {})
+        factors = s.get("realtime_factor", {}).get("paper-1", {})
+        load = (h.get("load_average") or [None])[0]
+        rows.append(
+            f"| {date.replace('T', ' ')} | {_num(load, 2)} | {_num(h.get('ratio_to_floor'), 2)} | "
+            f"{_num(factors.get('paper'))} | {_num(factors.get('two-rate'))} |"
+        )
+    sims = [
+        f"{(h.get('date') or '?')[:16].replace('T', ' ')}: "
+        + ", ".join(
+            f"{k} {_num(v.get('paper'))}x / {_num(v.get('two-rate'))}x"
+            for k, v in h.get("realtime_factor", {}).items()
+        )
+        for h in (reports.get("simulation") or {}).get("history", [])[-10:]
+    ]
+    return "\n".join(rows) + "\n\nSimulation history (paper / two-rate): " + "; ".join(sims) + ".\n"
+
+
+TABLES: dict[str, tuple[str, Callable[[Report], str]]] = {
+    "outer_loop": ("outer_loop", outer_loop),
+    "simulation": ("simulation", simulation),
+    "controllers": ("controllers", controllers),
+    "campaign": ("campaign", campaign),
+}
+
+
+def load_reports(folder: Path) -> dict[str, Report | None]:
+    """Every report of ``folder`` (None for a missing or unreadable one)."""
+    out: dict[str, Report | None] = {}
+    for name in TABLES:
+        try:
+            out[name] = json.loads((folder / f"{name}.json").read_text())
+        except (OSError, ValueError):
+            out[name] = None
+    return out
+
+
+def update_readme(readme: Path, folder: Path) -> list[str]:
+    """Rewrite the README's generated blocks from the reports in ``folder``; return the blocks written."""
+    reports = load_reports(folder)
+    text = readme.read_text(encoding="utf-8")
+    written = []
+    blocks = {name: fn for name, (_, fn) in TABLES.items()}
+    for name in re.findall(r"<!-- figures:(\w+) -->", text):
+        if name == "history":
+            body = history(reports)
+        elif reports.get(name) is None or name not in blocks:
+            continue  # no report: the block keeps its previous figures
+        else:
+            try:
+                body = blocks[name](reports[name])  # type: ignore[arg-type]
+            except (KeyError, TypeError, IndexError) as err:  # an older report without some key
+                body = f"(the report {name}.json lacks {err}: run the benchmark again)\n"
+        pattern = re.compile(rf"(<!-- figures:{name} -->\n).*?(<!-- /figures:{name} -->)", re.S)
+        text = pattern.sub(lambda m, body=body: m.group(1) + body + m.group(2), text)
+        written.append(name)
+    readme.write_text(text, encoding="utf-8")
+    return written

@@ -179,8 +179,9 @@ def run_campaign(
         client, cluster = (None, None) if workers == 0 else _connect(scheduler, workers)
         summary.workers = 0 if client is None else sum(_nthreads(client).values())
         try:
-            storage.create_folder(path, record)
-            with storage.client_lock(path):
+            path.mkdir(parents=True, exist_ok=True)
+            with storage.client_lock(path):  # before the definition is written: a client that holds
+                storage.create_folder(path, record)  # the lock deletes every temporary file it finds
                 _recover(path)
                 done = storage.stored_keys(path)  # again, under the lock
                 pending = [s for s in specs if s.key not in done]

@@ -9,7 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from ibvs_youla.campaign.robustness import AXES, RobustnessStudy, read_study_rows, run_study
+from ibvs_youla.campaign.robustness import RobustnessStudy, read_study_rows, run_study
+from ibvs_youla.campaign.robustness_axes import AXES
 from ibvs_youla.campaign.robustness_report import degradation, plot_study, summarize_study
 from ibvs_youla.cli import main
 from ibvs_youla.exceptions import InvalidParameterError

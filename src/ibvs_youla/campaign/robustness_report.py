@@ -249,7 +249,8 @@ def write_study_report(
         out: Where to write (default: ``folder``).
         tolerance: (mm, deg) of a success.
     """
-    from .robustness import AXES, read_study, read_study_rows
+    from .robustness import read_study, read_study_rows
+    from .robustness_axes import AXES
 
     study = read_study(folder)
     tolerance = check_tolerance(tolerance)

@@ -57,7 +57,7 @@ def configure(parser: argparse.ArgumentParser, positive: Any) -> None:
     """Add the arguments of ``robustness`` to its subparser (and set ``func`` to :func:`run`)."""
     from .. import controllers
     from ..campaign.cases import FAMILIES
-    from ..campaign.robustness import AXES, value_label
+    from ..campaign.robustness_axes import AXES, value_label
     from ..campaign.spec import CAMERA_KINDS
     from ..simulation.simulate import PLANTS
     from . import campaign, compare

@@ -50,7 +50,7 @@ from .ik import (
     numerical_branches,
     select_branches,
 )
-from .ik_kernels import ik_parameter_array, nearest_branch_compiled
+from .ik_kernels import ik_parameter_array, nearest_branch_compiled, poses_match
 from .urdf_checks import check_model
 
 __all__ = ["ABA_CONVENTION", "ActuatorParameters", "Arm"]
@@ -503,8 +503,7 @@ class Arm:
             )
             if found:
                 T_q, J_C = self.camera_pose_and_jacobian(q)
-                d = (T_q - T_O_C).ravel()
-                if d.dot(d) <= _IK_TOL**2 or np.abs(d).max() <= _IK_TOL:  # the first implies the second
+                if poses_match(T_q, T_O_C, _IK_TOL):  # max |FK(q) - T_O_C| <= 1e-9, as ik checks
                     return q, T_q, J_C
         q = self.ik(T_O_C, q_near=q_near)[0]
         return (q, *self.camera_pose_and_jacobian(q))

@@ -18,7 +18,7 @@ import numpy as np
 from .._jit import jit
 from ._ik_closed_form import SINGULAR_TOL, SphericalWristParameters
 
-__all__ = ["ik_parameter_array", "nearest_branch_compiled"]
+__all__ = ["ik_parameter_array", "nearest_branch_compiled", "poses_match"]
 
 _PI, _TAU = math.pi, math.tau
 
@@ -200,3 +200,13 @@ def nearest_branch_compiled(
                     best_d, best_i, best_j, best_k = d, i, j, k
                     found = True
     return found, best
+
+
+@jit
+def poses_match(T_a: np.ndarray, T_b: np.ndarray, tol: float) -> bool:
+    """True when every entry of two (4, 4) poses differs by at most tol: the IK solution's pose check."""
+    for i in range(4):
+        for j in range(4):
+            if not abs(T_a[i, j] - T_b[i, j]) <= tol:  # NaN fails
+                return False
+    return True

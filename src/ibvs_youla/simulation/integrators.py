@@ -122,15 +122,17 @@ def rk4_arm_step(
     return x + (dt * _RK4_WEIGHTS).dot(k)
 
 
-# Rows of ArmRk4's work array W (10, 2n): the stage derivatives k1..k4, the state at the start of
-# the step, the stage state [q; dq], [tau - damping * dq; tau], [damping; 0], the bounds of x.
-_K, _X, _STAGE, _TAU, _DAMPING, _LOW, _HIGH = 0, 4, 5, 6, 7, 8, 9
+# Rows of ArmRk4's work array W (11, 2n): the stage derivatives k1..k4, the state at the start of
+# the step, the stage state [q; dq], [tau - damping * dq; tau], [damping; 0], the bounds of x, and
+# [the next stage's index, dt, 0...] (so that the stage kernels take two arguments: cheaper calls).
+_K, _X, _STAGE, _TAU, _DAMPING, _LOW, _HIGH, _META = 0, 4, 5, 6, 7, 8, 9, 10
 
 
 @jit
-def rk4_begin(W: np.ndarray, x: np.ndarray, tau: np.ndarray) -> None:
-    """Start a step from x = [q; dq] with tau held: the first stage's state, torque and k1's dq part."""
+def rk4_begin(W: np.ndarray, x: np.ndarray, tau: np.ndarray, dt: float) -> None:
+    """Start a step of dt from x = [q; dq] with tau held: the first stage's state, torque, k1's dq part."""
     n = x.shape[0] // 2
+    W[_META, 0], W[_META, 1] = 0.0, dt
     for j in range(2 * n):
         W[_X, j] = x[j]
         W[_STAGE, j] = x[j]
@@ -141,9 +143,11 @@ def rk4_begin(W: np.ndarray, x: np.ndarray, tau: np.ndarray) -> None:
 
 
 @jit
-def rk4_stage(W: np.ndarray, ddq: np.ndarray, i: int, dt: float) -> None:
-    """Store stage i's accelerations (i = 0, 1, 2), then form stage i + 1's state and torque."""
+def rk4_stage(W: np.ndarray, ddq: np.ndarray) -> None:
+    """Store stage i's accelerations (i = 0, 1, 2, counted in W), then form stage i + 1's state and torque."""
     n = ddq.shape[0]
+    i, dt = int(W[_META, 0]), W[_META, 1]
+    W[_META, 0] = i + 1
     c = 0.5 * dt if i < 2 else dt
     for j in range(n):
         W[_K + i, n + j] = ddq[j]
@@ -156,9 +160,10 @@ def rk4_stage(W: np.ndarray, ddq: np.ndarray, i: int, dt: float) -> None:
 
 
 @jit
-def rk4_end(W: np.ndarray, ddq: np.ndarray, dt: float, x: np.ndarray) -> bool:
+def rk4_end(W: np.ndarray, ddq: np.ndarray, x: np.ndarray) -> bool:
     """Store k4; write x = x0 + dt (k1 + 2 k2 + 2 k3 + k4) / 6 and return whether it is within bounds."""
     n = ddq.shape[0]
+    dt = W[_META, 1]
     for j in range(n):
         W[_K + 3, n + j] = ddq[j]
     w0, w1 = dt * (1.0 / 6.0), dt * (2.0 / 6.0)  # dt * _RK4_WEIGHTS
@@ -181,7 +186,7 @@ class ArmRk4:
     def __init__(self, arm: Any, x_low: np.ndarray, x_high: np.ndarray) -> None:
         self._arm = arm
         n = len(arm.damping)
-        self._W = W = np.zeros((10, 2 * n))
+        self._W = W = np.zeros((11, 2 * n))
         W[_DAMPING, :n] = arm.damping
         W[_LOW], W[_HIGH] = x_low, x_high
         self._q, self._dq, self._tau = W[_STAGE, :n], W[_STAGE, n:], W[_TAU, :n]  # views fed to the ABA
@@ -193,9 +198,9 @@ class ArmRk4:
         """
         model, data = self._arm.pinocchio_model_data()
         W, q, dq, tau_stage, world = self._W, self._q, self._dq, self._tau, ABA_CONVENTION
-        rk4_begin(W, x, tau)
-        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world), 0, dt)
-        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world), 1, dt)
-        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world), 2, dt)
+        rk4_begin(W, x, tau, dt)
+        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world))
+        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world))
+        rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world))
         x_next = np.empty(x.shape[0])  # a new array (cheaper than one returned by compiled code)
-        return x_next, rk4_end(W, pin.aba(model, data, q, dq, tau_stage, world), dt, x_next)
+        return x_next, rk4_end(W, pin.aba(model, data, q, dq, tau_stage, world), x_next)

@@ -221,9 +221,10 @@ class ArmPlant:
             if not np.all(np.isfinite(tau)):
                 self._diverged(self.t, "tau", tau, "finite values")
             self._check(self.t + dt, x[: self._n], x[self._n :])
+        n = self._n
         if self.saturate_speed:
-            x[self._n :] = np.clip(x[self._n :], -self._dq_max, self._dq_max)
-        self._set_state(x)
+            x[n:] = np.clip(x[n:], -self._dq_max, self._dq_max)
+        self._x, self._q, self._dq = x, x[:n], x[n:]  # _set_state, inline (every tick)
         self.t += dt
         self.last_tau = tau
 

@@ -237,6 +237,55 @@ def history(reports: dict[str, Report | None]) -> str:
     return "\n".join(rows) + "\n\nSimulation history (paper / two-rate): " + "; ".join(sims) + ".\n"
 
 
+def targets(reports: dict[str, Report | None]) -> str:
+    """Issue 12's targets, each with the value measured in the latest reports and the load then."""
+
+    def load(r: Report | None) -> str:
+        if r is None:
+            return "no report"
+        m, other = r.get("machine", {}), r.get("cpu", {}).get("other_cores")
+        la = (m.get("load_average") or [m.get("load_average_1min")])[0]
+        busy = "" if other is None else f", other jobs {other:.2f} cores"
+        return f"{(m.get('date') or '?')[:16].replace('T', ' ')}, load {_num(la, 2)}{busy}"
+
+    rows = ["| target | measured | | when, machine load |", "| --- | --- | --- | --- |"]
+    outer, sim, camp = reports.get("outer_loop"), reports.get("simulation"), reports.get("campaign")
+    if outer is not None:
+        rows.append(
+            f"| adaptive outer update <= 2.5x its floor | {_num(outer['ratio_to_floor'], 2)}x "
+            f"({_num(outer['update_median_us'])} / {_num(outer['floor_median_us'], 2)} us) | "
+            f"{_met(outer['ratio_to_floor'] <= 2.5)} | {load(outer)} |"
+        )
+    if sim is not None:
+        for label, bound, what in (("paper", 20, "1 kHz / 1 kHz"), ("two-rate", 50, "1 kHz / 100 Hz")):
+            values = {n: f[label] for n, f in sim["realtime_factor"].items()}
+            worst = min(values.values())
+            rows.append(
+                f"| paper scenarios, dynamic arm, {what}: >= {bound}x real time | "
+                + ", ".join(f"{n} {_num(v)}x" for n, v in values.items())
+                + f" | {_met(worst >= bound)} | {load(sim)} |"
+            )
+        for name, c in sim.get("classical", {}).items():
+            rows.append(
+                f"| classical IBVS, {name}, 25 Hz: >= 1,000x | {_num(c['realtime_factor'], 0)}x | "
+                f"{_met(c['realtime_factor'] >= 1000)} | {load(sim)} |"
+            )
+    if camp is not None:
+        p = camp["projection"]
+        rows.append(
+            "| 1,000 x 7 free-camera runs of 20 s < 5 min (2 workers) | "
+            f"{_num(p['free_1000x7_minutes']['2'])} min | "
+            f"{_met(p['free_1000x7_minutes']['2'] < 5.0)} | {load(camp)} |"
+        )
+        if "arm_1000x7_minutes" in p:
+            rows.append(
+                f"| 1,000 x 7 dynamic-arm runs of 20 s at 1 kHz / 100 Hz < 30 min (2 workers) | "
+                f"{_num(p['arm_1000x7_minutes']['2'])} min | {_met(p['arm_1000x7_minutes']['2'] < 30.0)} | "
+                f"{load(camp)} |"
+            )
+    return "\n".join(rows) + "\n"
+
+
 TABLES: dict[str, tuple[str, Callable[[Report], str]]] = {
     "outer_loop": ("outer_loop", outer_loop),
     "simulation": ("simulation", simulation),
@@ -265,6 +314,8 @@ def update_readme(readme: Path, folder: Path) -> list[str]:
     for name in re.findall(r"<!-- figures:(\w+) -->", text):
         if name == "history":
             body = history(reports)
+        elif name == "targets":
+            body = targets(reports)
         elif reports.get(name) is None or name not in blocks:
             continue  # no report: the block keeps its previous figures
         else:

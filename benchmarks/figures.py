@@ -209,32 +209,42 @@ def campaign(r: Report) -> str:
     )
 
 
+def _minutes(date: str | None) -> float | None:
+    """Minutes since the epoch of an ISO date, or None."""
+    import datetime
+
+    try:
+        return datetime.datetime.fromisoformat(date).timestamp() / 60.0  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
+
+
 def history(reports: dict[str, Report | None]) -> str:
-    """The last runs' headline figures, from each report's history."""
+    """The last runs' headline figures: each outer-loop run with the simulation run nearest in time."""
     rows = [
-        "| date (UTC) | load 1 min | update / floor | paper-1 1 kHz/1 kHz | paper-1 1 kHz/100 Hz |",
-        "| --- | ---: | ---: | ---: | ---: |",
+        "| date (UTC) | load 1 min | update / floor | paper-1 1 kHz/1 kHz | paper-1 1 kHz/100 Hz "
+        "| kinematic IBVS | free-camera IBVS (stereo) |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     outer = (reports.get("outer_loop") or {}).get("history", [])
-    sim = {h.get("date", "")[:16]: h for h in (reports.get("simulation") or {}).get("history", [])}
-    for h in outer[-10:]:
-        date = (h.get("date") or "?")[:16]
-        s = sim.get(date, {})
+    sims = [(h, _minutes(h.get("date"))) for h in (reports.get("simulation") or {}).get("history", [])]
+    for h in outer[-12:]:
+        when = _minutes(h.get("date"))
+        near = [
+            (abs(m - when), s) for s, m in sims if m is not None and when is not None and abs(m - when) < 60
+        ]
+        s = min(near, key=lambda x: x[0])[1] if near else {}
         factors = s.get("realtime_factor", {}).get("paper-1", {})
+        classical = s.get("classical") or {}
         load = (h.get("load_average") or [None])[0]
         rows.append(
-            f"| {date.replace('T', ' ')} | {_num(load, 2)} | {_num(h.get('ratio_to_floor'), 2)} | "
-            f"{_num(factors.get('paper'))} | {_num(factors.get('two-rate'))} |"
+            f"| {(h.get('date') or '?')[:16].replace('T', ' ')} | {_num(load, 2)} "
+            f"| {_num(h.get('ratio_to_floor'), 2)} | {_num(factors.get('paper'))} "
+            f"| {_num(factors.get('two-rate'))} "
+            f"| {_num(classical.get('kinematic/physical-2'), 0)} "
+            f"| {_num(classical.get('free-camera/physical-2'), 0)} |"
         )
-    sims = [
-        f"{(h.get('date') or '?')[:16].replace('T', ' ')}: "
-        + ", ".join(
-            f"{k} {_num(v.get('paper'))}x / {_num(v.get('two-rate'))}x"
-            for k, v in h.get("realtime_factor", {}).items()
-        )
-        for h in (reports.get("simulation") or {}).get("history", [])[-10:]
-    ]
-    return "\n".join(rows) + "\n\nSimulation history (paper / two-rate): " + "; ".join(sims) + ".\n"
+    return "\n".join(rows) + "\n"
 
 
 def targets(reports: dict[str, Report | None]) -> str:

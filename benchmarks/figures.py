@@ -37,9 +37,13 @@ def _when(r: Report) -> str:
         f"{k} {v}" for k, v in versions.items() if k in ("python", "numpy", "scipy", "pin", "numba")
     )
     busy = "" if other is None else f"; other jobs used {other:.2f} of the {m.get('cores')} cores meanwhile"
+    calibration = m.get("calibration_ms")
+    speed = (
+        "" if calibration is None else f"; calibration loop {calibration:.1f} ms (smaller: faster machine)"
+    )
     return (
         f"{m.get('date', '?')}, {m.get('cpu', '?')} ({m.get('cores', '?')} cores), load average "
-        f"{' / '.join(_num(x, 2) for x in load)} (1/5/15 min){busy}; {pkgs}; compiled kernels "
+        f"{' / '.join(_num(x, 2) for x in load)} (1/5/15 min){busy}{speed}; {pkgs}; compiled kernels "
         f"{'on' if m.get('compiled_kernels') else 'off'}"
     )
 
@@ -133,7 +137,7 @@ def controllers(r: Report) -> str:
     rows = [
         "| method | mono: median / p95 [us] | floor [us] | ratio | stereo: median / p95 [us] "
         "| floor [us] | ratio |",
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     mono, stereo = r["cases"]["mono"]["methods"], r["cases"]["stereo"]["methods"]
     for name in r["controllers"]:
@@ -222,9 +226,9 @@ def _minutes(date: str | None) -> float | None:
 def history(reports: dict[str, Report | None]) -> str:
     """The last runs' headline figures: each outer-loop run with the simulation run nearest in time."""
     rows = [
-        "| date (UTC) | load 1 min | update / floor | paper-1 1 kHz/1 kHz | paper-1 1 kHz/100 Hz "
-        "| kinematic IBVS | free-camera IBVS (stereo) |",
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
+        "| date (UTC) | load 1 min | calibration [ms] | update / floor | paper-1 1 kHz/1 kHz "
+        "| paper-1 1 kHz/100 Hz | kinematic IBVS | free-camera IBVS (stereo) |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     outer = (reports.get("outer_loop") or {}).get("history", [])
     sims = [(h, _minutes(h.get("date"))) for h in (reports.get("simulation") or {}).get("history", [])]
@@ -239,6 +243,7 @@ def history(reports: dict[str, Report | None]) -> str:
         load = (h.get("load_average") or [None])[0]
         rows.append(
             f"| {(h.get('date') or '?')[:16].replace('T', ' ')} | {_num(load, 2)} "
+            f"| {_num(h.get('calibration_ms'))} "
             f"| {_num(h.get('ratio_to_floor'), 2)} | {_num(factors.get('paper'))} "
             f"| {_num(factors.get('two-rate'))} "
             f"| {_num(classical.get('kinematic/physical-2'), 0)} "
@@ -256,7 +261,9 @@ def targets(reports: dict[str, Report | None]) -> str:
         m, other = r.get("machine", {}), r.get("cpu", {}).get("other_cores")
         la = (m.get("load_average") or [m.get("load_average_1min")])[0]
         busy = "" if other is None else f", other jobs {other:.2f} cores"
-        return f"{(m.get('date') or '?')[:16].replace('T', ' ')}, load {_num(la, 2)}{busy}"
+        cal = m.get("calibration_ms")
+        speed = "" if cal is None else f", calibration {cal:.1f} ms"
+        return f"{(m.get('date') or '?')[:16].replace('T', ' ')}, load {_num(la, 2)}{busy}{speed}"
 
     rows = ["| target | measured | | when, machine load |", "| --- | --- | --- | --- |"]
     outer, sim, camp = reports.get("outer_loop"), reports.get("simulation"), reports.get("campaign")

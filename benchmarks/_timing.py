@@ -104,6 +104,23 @@ class CpuShare:
         return {"wall_s": wall, "own_cores": own, "other_cores": max(0.0, busy - own)}
 
 
+def calibration_ms(repeats: int = 5) -> float:
+    """The fastest of ``repeats`` runs of a fixed interpreter workload [ms]: how fast the machine is now.
+
+    A pure-Python loop of 200,000 float operations (about 10 ms on a quiet 2.6 GHz EPYC core). It
+    moves with the hypervisor's share and the other jobs as the benchmarks do, so a history entry
+    with a larger calibration than another was taken on a slower machine, whatever the load says.
+    """
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = perf_counter()
+        x = 0.0
+        for i in range(200_000):
+            x = x * 0.5 + i
+        best = min(best, perf_counter() - t0)
+    return best * 1e3
+
+
 def machine() -> dict[str, Any]:
     """Where and when the figures were measured, with which packages, and how busy the machine was."""
     from ibvs_youla._jit import jit_available
@@ -131,6 +148,7 @@ def machine() -> dict[str, Any]:
         "cores": os.cpu_count(),
         "load_average_1min": load[0] if load else None,
         "load_average": load,
+        "calibration_ms": calibration_ms(),
         "compiled_kernels": jit_available(),
         "platform": platform.platform(),
         "versions": versions,
@@ -172,6 +190,7 @@ def _entry(report: dict[str, Any], headline: Headline | None) -> dict[str, Any]:
     entry: dict[str, Any] = {
         "date": machine_.get("date"),
         "load_average": machine_.get("load_average") or [machine_.get("load_average_1min")],
+        "calibration_ms": machine_.get("calibration_ms"),
         "compiled_kernels": machine_.get("compiled_kernels"),
     }
     if headline is not None:

@@ -185,9 +185,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             t.append(perf_counter())
             J_hat, _ = image_jacobian(T_q, J_C, run.markers_O, run.params, run.lens_x, run.virtual_points)
             t.append(perf_counter())
-            Pe = svd_gains_apply(J_hat, run.task.feature_target - frame.features, run.damped, run.threshold)[
-                0
-            ]
+            Pe = np.empty(6)
+            svd_gains_apply(J_hat, run.task.feature_target - frame.features, run.damped, run.threshold, Pe)
             t.append(perf_counter())
             run.filter.step(Pe)
             t.append(perf_counter())

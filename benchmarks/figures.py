@@ -37,9 +37,13 @@ def _when(r: Report) -> str:
         f"{k} {v}" for k, v in versions.items() if k in ("python", "numpy", "scipy", "pin", "numba")
     )
     busy = "" if other is None else f"; other jobs used {other:.2f} of the {m.get('cores')} cores meanwhile"
+    calibration = m.get("calibration_ms")
+    speed = (
+        "" if calibration is None else f"; calibration loop {calibration:.1f} ms (smaller: faster machine)"
+    )
     return (
         f"{m.get('date', '?')}, {m.get('cpu', '?')} ({m.get('cores', '?')} cores), load average "
-        f"{' / '.join(_num(x, 2) for x in load)} (1/5/15 min){busy}; {pkgs}; compiled kernels "
+        f"{' / '.join(_num(x, 2) for x in load)} (1/5/15 min){busy}{speed}; {pkgs}; compiled kernels "
         f"{'on' if m.get('compiled_kernels') else 'off'}"
     )
 
@@ -133,7 +137,7 @@ def controllers(r: Report) -> str:
     rows = [
         "| method | mono: median / p95 [us] | floor [us] | ratio | stereo: median / p95 [us] "
         "| floor [us] | ratio |",
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     mono, stereo = r["cases"]["mono"]["methods"], r["cases"]["stereo"]["methods"]
     for name in r["controllers"]:
@@ -209,32 +213,94 @@ def campaign(r: Report) -> str:
     )
 
 
+def _minutes(date: str | None) -> float | None:
+    """Minutes since the epoch of an ISO date, or None."""
+    import datetime
+
+    try:
+        return datetime.datetime.fromisoformat(date).timestamp() / 60.0  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
+
+
 def history(reports: dict[str, Report | None]) -> str:
-    """The last runs' headline figures, from each report's history."""
+    """The last runs' headline figures: each outer-loop run with the simulation run nearest in time."""
     rows = [
-        "| date (UTC) | load 1 min | update / floor | paper-1 1 kHz/1 kHz | paper-1 1 kHz/100 Hz |",
-        "| --- | ---: | ---: | ---: | ---: |",
+        "| date (UTC) | load 1 min | calibration [ms] | update / floor | paper-1 1 kHz/1 kHz "
+        "| paper-1 1 kHz/100 Hz | kinematic IBVS | free-camera IBVS (stereo) |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     outer = (reports.get("outer_loop") or {}).get("history", [])
-    sim = {h.get("date", "")[:16]: h for h in (reports.get("simulation") or {}).get("history", [])}
-    for h in outer[-10:]:
-        date = (h.get("date") or "?")[:16]
-        s = sim.get(date, {})
+    sims = [(h, _minutes(h.get("date"))) for h in (reports.get("simulation") or {}).get("history", [])]
+    for h in outer[-12:]:
+        when = _minutes(h.get("date"))
+        near = [
+            (abs(m - when), s) for s, m in sims if m is not None and when is not None and abs(m - when) < 60
+        ]
+        s = min(near, key=lambda x: x[0])[1] if near else {}
         factors = s.get("realtime_factor", {}).get("paper-1", {})
+        classical = s.get("classical") or {}
         load = (h.get("load_average") or [None])[0]
         rows.append(
-            f"| {date.replace('T', ' ')} | {_num(load, 2)} | {_num(h.get('ratio_to_floor'), 2)} | "
-            f"{_num(factors.get('paper'))} | {_num(factors.get('two-rate'))} |"
+            f"| {(h.get('date') or '?')[:16].replace('T', ' ')} | {_num(load, 2)} "
+            f"| {_num(h.get('calibration_ms'))} "
+            f"| {_num(h.get('ratio_to_floor'), 2)} | {_num(factors.get('paper'))} "
+            f"| {_num(factors.get('two-rate'))} "
+            f"| {_num(classical.get('kinematic/physical-2'), 0)} "
+            f"| {_num(classical.get('free-camera/physical-2'), 0)} |"
         )
-    sims = [
-        f"{(h.get('date') or '?')[:16].replace('T', ' ')}: "
-        + ", ".join(
-            f"{k} {_num(v.get('paper'))}x / {_num(v.get('two-rate'))}x"
-            for k, v in h.get("realtime_factor", {}).items()
+    return "\n".join(rows) + "\n"
+
+
+def targets(reports: dict[str, Report | None]) -> str:
+    """Issue 12's targets, each with the value measured in the latest reports and the load then."""
+
+    def load(r: Report | None) -> str:
+        if r is None:
+            return "no report"
+        m, other = r.get("machine", {}), r.get("cpu", {}).get("other_cores")
+        la = (m.get("load_average") or [m.get("load_average_1min")])[0]
+        busy = "" if other is None else f", other jobs {other:.2f} cores"
+        cal = m.get("calibration_ms")
+        speed = "" if cal is None else f", calibration {cal:.1f} ms"
+        return f"{(m.get('date') or '?')[:16].replace('T', ' ')}, load {_num(la, 2)}{busy}{speed}"
+
+    rows = ["| target | measured | | when, machine load |", "| --- | --- | --- | --- |"]
+    outer, sim, camp = reports.get("outer_loop"), reports.get("simulation"), reports.get("campaign")
+    if outer is not None:
+        rows.append(
+            f"| adaptive outer update <= 2.5x its floor | {_num(outer['ratio_to_floor'], 2)}x "
+            f"({_num(outer['update_median_us'])} / {_num(outer['floor_median_us'], 2)} us) | "
+            f"{_met(outer['ratio_to_floor'] <= 2.5)} | {load(outer)} |"
         )
-        for h in (reports.get("simulation") or {}).get("history", [])[-10:]
-    ]
-    return "\n".join(rows) + "\n\nSimulation history (paper / two-rate): " + "; ".join(sims) + ".\n"
+    if sim is not None:
+        for label, bound, what in (("paper", 20, "1 kHz / 1 kHz"), ("two-rate", 50, "1 kHz / 100 Hz")):
+            values = {n: f[label] for n, f in sim["realtime_factor"].items()}
+            worst = min(values.values())
+            rows.append(
+                f"| paper scenarios, dynamic arm, {what}: >= {bound}x real time | "
+                + ", ".join(f"{n} {_num(v)}x" for n, v in values.items())
+                + f" | {_met(worst >= bound)} | {load(sim)} |"
+            )
+        for name, c in sim.get("classical", {}).items():
+            rows.append(
+                f"| classical IBVS, {name}, 25 Hz: >= 1,000x | {_num(c['realtime_factor'], 0)}x | "
+                f"{_met(c['realtime_factor'] >= 1000)} | {load(sim)} |"
+            )
+    if camp is not None:
+        p = camp["projection"]
+        rows.append(
+            "| 1,000 x 7 free-camera runs of 20 s < 5 min (2 workers) | "
+            f"{_num(p['free_1000x7_minutes']['2'])} min | "
+            f"{_met(p['free_1000x7_minutes']['2'] < 5.0)} | {load(camp)} |"
+        )
+        if "arm_1000x7_minutes" in p:
+            rows.append(
+                f"| 1,000 x 7 dynamic-arm runs of 20 s at 1 kHz / 100 Hz < 30 min (2 workers) | "
+                f"{_num(p['arm_1000x7_minutes']['2'])} min | {_met(p['arm_1000x7_minutes']['2'] < 30.0)} | "
+                f"{load(camp)} |"
+            )
+    return "\n".join(rows) + "\n"
 
 
 TABLES: dict[str, tuple[str, Callable[[Report], str]]] = {
@@ -265,6 +331,8 @@ def update_readme(readme: Path, folder: Path) -> list[str]:
     for name in re.findall(r"<!-- figures:(\w+) -->", text):
         if name == "history":
             body = history(reports)
+        elif name == "targets":
+            body = targets(reports)
         elif reports.get(name) is None or name not in blocks:
             continue  # no report: the block keeps its previous figures
         else:

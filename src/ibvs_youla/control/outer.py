@@ -254,7 +254,7 @@ class OuterLoopController:
         self._n = n_joints
         self._fixed: SvdGains | None = None
         self._last: SvdGains | None = None
-        self._last_raw: tuple[np.ndarray, ...] | None = None  # (U, sigma, gains, Vt) of `advance`
+        self._last_J: np.ndarray | None = None  # the J of the last `advance`, factorized when asked
         self._q_fb = np.zeros(n_joints)
         if J is not None:
             self.set_jacobian(J)
@@ -272,16 +272,20 @@ class OuterLoopController:
 
     @property
     def last_decomposition(self) -> SvdGains | None:
-        """SVD and gains used by the last update (or the fixed one), for logging."""
-        if self._last_raw is not None:
-            self._last, self._last_raw = SvdGains.from_svd(*self._last_raw), None
+        """SVD and gains used by the last update (or the fixed one), for logging.
+
+        After :meth:`advance`, factorized when read, from the same J by the same LAPACK call (the
+        same floats as the update used).
+        """
+        if self._last_J is not None:
+            self._last, self._last_J = SvdGains.from_svd(*self._policy.svd_gains(self._last_J)), None
         return self._last
 
     def set_jacobian(self, J: Any) -> None:
         """Fix the Jacobian (m, n) used when :meth:`update` gets no J."""
         J = as_array(J, "J", (None, self._n))
         self._fixed = self._last = self._policy.decompose(J)
-        self._last_raw = None
+        self._last_J = None
 
     def update(self, e_image: Any, J: Any = None) -> np.ndarray:
         """One camera sample: q_fb[k] = K(z)[P e][k].
@@ -316,11 +320,12 @@ class OuterLoopController:
         pseudo-inverse itself is formed only if :attr:`last_decomposition` is read. Returns the
         controller's own q_fb array (not a copy): do not modify it.
         """
-        Pe, U, s, g, Vt, ok = svd_gains_apply(J, e_image, self._damped, self._threshold)
-        if not ok:  # LAPACK failed, or no direction to control: the reference raises (or returns NaN)
-            U, s, g, Vt = self._policy.svd_gains(J)
+        Pe = np.empty(J.shape[1])
+        if not svd_gains_apply(J, e_image, self._damped, self._threshold, Pe):
+            # LAPACK failed, or no direction to control: the reference raises (or returns NaN)
+            U, _, g, Vt = self._policy.svd_gains(J)
             Pe = Vt.T.dot(g * U.T.dot(e_image))
-        self._last_raw = (U, s, g, Vt)
+        self._last_J = J
         self._q_fb = self._filter.step(Pe)
         return self._q_fb
 

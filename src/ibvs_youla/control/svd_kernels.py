@@ -67,10 +67,8 @@ def svd_gains(
 
 
 @jit
-def svd_gains_apply(
-    J: np.ndarray, e: np.ndarray, damped: bool, threshold: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
-    """(P e (n,), U (m, k), sigma (k,), g (k,), Vt (k, n), ok) for J (m, n) and e (m,)."""
+def svd_gains_apply(J: np.ndarray, e: np.ndarray, damped: bool, threshold: float, Pe: np.ndarray) -> bool:
+    """P e (n,) written into ``Pe`` for J (m, n) and e (m,); returns ok (the factors stay inside)."""
     U, s, Vt, info = gesdd(J)
     m, k, n = J.shape[0], s.shape[0], J.shape[1]
     g, ok = _gains(s, max(m, n), damped, threshold)
@@ -81,25 +79,21 @@ def svd_gains_apply(
         for r in range(m):
             acc += U[r, i] * e[r]
         w[i] = g[i] * acc
-    Pe = np.zeros(n)
     for j in range(n):  # V w
         acc = 0.0
         for i in range(k):
             acc += Vt[i, j] * w[i]
         Pe[j] = acc
-    return Pe, U, s, g, Vt, ok
+    return ok
 
 
 @jit
-def pseudo_inverse_apply(
-    J: np.ndarray, x: np.ndarray, damped: bool, threshold: float
-) -> tuple[np.ndarray, bool]:
-    """((V diag(g) U^T) x (n,), ok) for J (m, n) and x (m,): the pseudo-inverse formed, then applied."""
+def pseudo_inverse_apply(J: np.ndarray, x: np.ndarray, damped: bool, threshold: float, y: np.ndarray) -> bool:
+    """(V diag(g) U^T) x (n,) written into ``y`` for J (m, n) and x (m,); returns ok."""
     U, s, Vt, info = gesdd(J)
     m, k, n = J.shape[0], s.shape[0], J.shape[1]
     g, ok = _gains(s, max(m, n), damped, threshold)
     ok = ok and info == 0
-    y = np.zeros(n)
     for j in range(n):
         acc = 0.0
         for r in range(m):
@@ -108,4 +102,4 @@ def pseudo_inverse_apply(
                 p += Vt[i, j] * g[i] * U[r, i]
             acc += p * x[r]
         y[j] = acc
-    return y, ok
+    return ok

@@ -72,9 +72,9 @@ class TwistToJointVelocity:
         """
         J_C = self._arm.camera_jacobian_at(reading.q)
         if getattr(twist, "shape", None) == (6,) and twist.dtype == np.float64:
-            dq_ref, ok = pseudo_inverse_apply(J_C, twist, self._damped, self._threshold)
-            if ok:
-                return dq_ref  # type: ignore[no-any-return]
+            dq_ref = np.empty(J_C.shape[1])
+            if pseudo_inverse_apply(J_C, twist, self._damped, self._threshold, dq_ref):
+                return dq_ref
         return self._policy.pseudo_inverse(J_C) @ twist
 
 

@@ -26,7 +26,7 @@ from ..exceptions import InvalidParameterError
 from .cases import ARM_FAMILIES, FAMILIES
 from .spec import CAMERA_KINDS, ExperimentSpec, parse_method, specs_for
 
-__all__ = ["FAMILY_DEFAULTS", "CampaignDefinition"]
+__all__ = ["FAMILY_DEFAULTS", "CampaignDefinition", "methods_for_plant"]
 
 _ARM_DEFAULTS: dict[str, Any] = {
     "plant": "dynamic",
@@ -225,3 +225,14 @@ class CampaignDefinition:
             controller_params=self.controller_params,
             disturbances=self.disturbances,
         )
+
+
+def methods_for_plant(plant: str) -> tuple[str, ...]:
+    """Every registered controller that can run on ``plant`` (the free camera takes camera twists only)."""
+    from .. import controllers as registry
+
+    return tuple(
+        name
+        for name in registry.names()
+        if plant != "free-camera" or registry.make(name).command_type.value == "camera_twist"
+    )

@@ -88,8 +88,7 @@ def scheduler_address(text: str) -> str:
 
 def run(args: argparse.Namespace, extra: list[str]) -> int:
     """Run the campaign, print what was stored; return 0, or 1 when runs could not be stored."""
-    from .. import controllers
-    from ..campaign.definition import FAMILY_DEFAULTS, CampaignDefinition
+    from ..campaign.definition import FAMILY_DEFAULTS, CampaignDefinition, methods_for_plant
     from ..campaign.runner import run_campaign
     from ..campaign.storage import read_rows
     from ..exceptions import InvalidParameterError
@@ -98,12 +97,8 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
         raise UsageError("campaign: --workers sets the local cluster; with --scheduler the cluster's run")
     plant = args.plant or FAMILY_DEFAULTS[args.family]["plant"]
     names = args.controllers
-    if names is None:  # every method that can run on the plant
-        names = tuple(
-            n
-            for n in controllers.names()
-            if plant != "free-camera" or controllers.make(n).command_type.value == "camera_twist"
-        )
+    if names is None:
+        names = methods_for_plant(plant)
     # the client's own log would print the reconnection attempts' tracebacks: errors are one line here
     logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
     try:

@@ -123,8 +123,7 @@ def _path(text: str) -> Any:
 
 def run(args: argparse.Namespace, extra: list[str] | None = None) -> int:
     """Run the study, write its report, print the table; return 0 (1 when runs could not be stored)."""
-    from .. import controllers
-    from ..campaign.definition import FAMILY_DEFAULTS
+    from ..campaign.definition import FAMILY_DEFAULTS, methods_for_plant
     from ..campaign.robustness import RobustnessStudy, run_study
     from ..campaign.robustness_report import write_study_report
     from ..exceptions import InvalidParameterError
@@ -135,12 +134,8 @@ def run(args: argparse.Namespace, extra: list[str] | None = None) -> int:
         raise UsageError("robustness: --workers sets the local cluster; with --scheduler the cluster's run")
     plant = args.plant or FAMILY_DEFAULTS[args.family]["plant"]
     names = args.controllers
-    if names is None:  # every method that can run on the plant
-        names = tuple(
-            n
-            for n in controllers.names()
-            if plant != "free-camera" or controllers.make(n).command_type.value == "camera_twist"
-        )
+    if names is None:
+        names = methods_for_plant(plant)
     params = {}
     if args.feedforward == "smooth":
         if "ff+fb" not in names:

@@ -452,3 +452,17 @@ def test_add_product_is_numpy_a_plus_b_times_c():
         expected = a + b * c
         add_product(a, b, c)
         np.testing.assert_array_equal(a, expected)
+
+
+def test_poses_match_is_the_largest_entry_difference_test():
+    from ibvs_youla.model.ik_kernels import poses_match
+
+    rng = np.random.default_rng(SEED + 13)
+    for _ in range(2000):
+        T = random_pose(rng)
+        d = rng.normal(0.0, 1e-9, (4, 4)) * (rng.random((4, 4)) < 0.3)
+        assert poses_match(T + d, T, 1e-9) == bool(np.abs((T + d) - T).max() <= 1e-9)
+    T = random_pose(rng)
+    T2 = T.copy()
+    T2[1, 2] = np.nan
+    assert not poses_match(T2, T, 1e-9) and poses_match(T, T, 0.0)

@@ -25,7 +25,7 @@ every worker count gave the serial rows (timing columns aside). ``own_cores`` an
 (:class:`CpuMeter`) tell whether other jobs shared the cores meanwhile. With ``--repeats`` > 1
 the configurations alternate and each figure is the median repeat's.
 
-Campaign sizing (issue 12): a 1,000-case, seven-method campaign of 20 s runs, projected from the
+Campaign sizing (the speed targets): a 1,000-case, seven-method campaign of 20 s runs, projected from the
 runs per minute measured on 2 workers: ``projection["free_1000x7_minutes"]`` (target under 5
 minutes) from the free campaign, and ``projection["arm_1000x7_minutes"]`` (target under 30) from
 the arm campaign at the default rates, for the seven twist methods (their mean run, the dearer

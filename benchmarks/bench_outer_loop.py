@@ -75,7 +75,7 @@ from ibvs_youla.simulation.settings import SimulationSettings
 PARTS = ("camera_pose", "sensor", "p3p", "ik", "jacobian", "svd_gains", "state_update")
 FLOOR = ("fk", "frame_jacobian", "svd_9x6", "svd_3x3")
 EXTRA = ("svd_9x6_numpy", "svd_3x3_numpy", "svd_9x6_compiled", "svd_3x3_compiled")
-TARGET_RATIO = 2.5  # issue 12: the update within 2.5x of its floor
+TARGET_RATIO = 2.5  # target: the update within 2.5x of its floor
 
 
 def _configurations(arm: Arm, n: int, seed: int) -> list[tuple[Any, np.ndarray]]:

@@ -54,7 +54,7 @@ from ibvs_youla.simulation.settings import SimulationSettings
 
 SETTINGS = {"paper": SimulationSettings.paper(), "two-rate": SimulationSettings(camera_rate_hz=100.0)}
 CLASSICAL_RATE_HZ = 25.0  # [Hz] ViSP's 40 ms period
-TARGETS = {"paper": 20.0, "two-rate": 50.0, "classical": 1000.0}  # issue 12: x real time, at least
+TARGETS = {"paper": 20.0, "two-rate": 50.0, "classical": 1000.0}  # targets: x real time, at least
 
 
 CLASSICAL_SETTINGS = SimulationSettings(joint_rate_hz=CLASSICAL_RATE_HZ, camera_rate_hz=CLASSICAL_RATE_HZ)

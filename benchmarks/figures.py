@@ -253,7 +253,7 @@ def history(reports: dict[str, Report | None]) -> str:
 
 
 def targets(reports: dict[str, Report | None]) -> str:
-    """Issue 12's targets, each with the value measured in the latest reports and the load then."""
+    """The speed targets, each with the value measured in the latest reports and the load then."""
 
     def load(r: Report | None) -> str:
         if r is None:

@@ -89,6 +89,17 @@ def test_hold_keeps_the_last_detected_features_of_a_missing_marker():
     np.testing.assert_array_equal(projected.features[3:9], truth.measure(away, 0.01).features[3:9])
 
 
+def test_nan_gives_a_missing_marker_nothing_the_images_did_not_show():
+    """missing="nan": the marker out of the right image has NaN features; the others are the detections."""
+    truth = MarkerSensor(CAMERA, MARKERS)
+    away = pose([-1.3, 0.0, 0.0])  # markers 1 and 2 leave the right image, 0 and 3 stay
+    frame = ImageSensor(truth, missing="nan").measure(away, 0.01)
+    np.testing.assert_array_equal(frame.visible, [True, False, False, True])
+    assert np.isnan(frame.features[3:9]).all()
+    detected = ImageSensor(truth, missing="projection").measure(away, 0.01).features
+    np.testing.assert_array_equal(frame.features[[0, 1, 2, 9, 10, 11]], detected[[0, 1, 2, 9, 10, 11]])
+
+
 def test_a_marker_behind_the_true_camera_ends_the_run_as_with_the_marker_sensor():
     with pytest.raises(PointBehindCameraError):
         ImageSensor(MarkerSensor(CAMERA, MARKERS)).measure(pose([0.0, 0.0, 1.55]), 0.0)

@@ -70,8 +70,8 @@ class RobustnessStudy:
 
     Raises:
         InvalidParameterError: an unknown axis, bad values, an axis that does not apply to the
-            campaign's plant (mismatch or saturation off the dynamic plant), or a campaign
-            that ``CampaignDefinition`` rejects.
+            campaign's plant or camera (mismatch or saturation off the dynamic plant, images
+            of the normalized camera), or a campaign that ``CampaignDefinition`` rejects.
     """
 
     axis: str
@@ -98,6 +98,7 @@ class RobustnessStudy:
                 "arm only (the kinematic arm and the free camera have no dynamics)",
             )
         object.__setattr__(self, "campaign", base.to_dict())
+        self.campaigns()  # every level's disturbances apply to the plant and camera, or raise here
 
     def campaigns(self) -> list[tuple[float, CampaignDefinition]]:
         """(value, its campaign) for every value, in the order of :attr:`values`."""

@@ -4,10 +4,17 @@
 its values, and ``levels(value, plant, stereo)``, the fields of
 :class:`~ibvs_youla.simulation.disturbances.Disturbances` one value sets (only those that apply
 to the plant and camera). The levels of each axis (value 0 is undisturbed, except for
-``saturation``, whose ``inf`` is):
+``saturation``, whose ``inf`` is, and ``images``):
 
 * ``noise``: Gaussian pixel noise sigma [px] on every image coordinate (the normalized camera
   of the free families maps 1 px to 1/800);
+* ``images``: every frame rendered as a stereo (or mono) pair of grey images of 5 cm discs with a
+  1 px Gaussian blur and sensor noise of this standard deviation [grey levels, on a contrast of
+  170], the markers detected in them (:class:`~ibvs_youla.simulation.image_sensor.ImageSensor`);
+  a frame in which a marker is not found is withheld from the controller. Every value renders
+  (value 0 is noise-free images, not the ideal sensor: compare with the ``noise`` axis's 0). A
+  camera with pixels only (not the free families' normalized camera); a frame costs about 8 ms,
+  2,000 of them per 20 s arm run;
 * ``calibration``: a level c >= 0 scaling one set of errors of the controller's beliefs:
   focal length and baseline +c %, principal point (+2c, -2c) px, hand-eye transform
   c (1, -1, 1) mm and c (0.1, 0.1, -0.1) deg (rotation vector; arm plants only), markers
@@ -36,11 +43,17 @@ import numpy as np
 
 from ..exceptions import InvalidParameterError
 
-__all__ = ["AXES", "Axis", "value_label"]
+__all__ = ["AXES", "IMAGE_BLUR_PX", "Axis", "value_label"]
+
+IMAGE_BLUR_PX = 1.0  # the images axis's blur [px]: a focused lens; blur barely moves a centroid
 
 
 def _noise(value: float, plant: str, stereo: bool) -> dict[str, Any]:
     return {"pixel_noise_px": value}
+
+
+def _images(noise_grey: float, plant: str, stereo: bool) -> dict[str, Any]:
+    return {"rendered_images": True, "image_blur_px": IMAGE_BLUR_PX, "image_noise_grey": noise_grey}
 
 
 def _calibration(c: float, plant: str, stereo: bool) -> dict[str, Any]:
@@ -136,6 +149,12 @@ AXES: dict[str, Axis] = {
     axis.name: axis
     for axis in (
         Axis("noise", "pixel noise sigma [px]", (0.0, 0.1, 0.3, 1.0, 3.0), _noise),
+        Axis(
+            "images",
+            "image sensor noise [grey levels] (rendered images, 1 px blur)",
+            (0.0, 2.0, 5.0, 10.0, 20.0),
+            _images,
+        ),
         Axis("calibration", "calibration error level", (0.0, 0.5, 1.0, 2.0, 4.0), _calibration),
         Axis("mismatch", "model mismatch level", (0.0, 0.5, 1.0, 2.0, 4.0), _mismatch, dynamic_only=True),
         Axis("latency", "latency [camera frames]", (0.0, 10.0, 30.0, 100.0, 300.0), _latency, integer=True),

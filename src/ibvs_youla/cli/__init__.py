@@ -5,7 +5,7 @@ table; ``simulate`` runs one scenario and writes the result, its figures and a
 summary; ``compare`` runs several methods on one scenario (or the Gans 2003 task suite)
 side by side; ``campaign`` runs every method on seeded random cases (on Dask) and
 ``campaign-report`` tabulates and plots a campaign folder; ``robustness`` sweeps one
-disturbance (pixel noise, calibration, model mismatch, latency, saturation) over a campaign's
+disturbance (pixel noise, rendered images, calibration, model mismatch, latency, saturation) over a campaign's
 cases; ``design`` prints (and with
 ``--plot`` draws) the inner, feedforward and outer designs; ``view`` plays a run in
 Meshcat; ``bench`` runs the benchmarks.

@@ -241,7 +241,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=campaign_report.run)
     p = sub.add_parser(
         "robustness",
-        help="sweep one disturbance (noise, calibration, mismatch, latency, saturation) over seeded cases",
+        help="sweep one disturbance (noise, images, calibration, mismatch, latency, saturation) "
+        "over seeded cases",
         description="sweep one disturbance over the same seeded campaign cases, every method, on this "
         "machine's cores or a Dask cluster (one campaign per value in OUT/<axis>=<value>, resumable), then "
         "write a table and figures: success with 95 % Wilson intervals, final pose error and time to "

@@ -25,9 +25,12 @@ Each frame (:meth:`ImageSensor.observe`):
 A marker that is not found, ambiguous, or inconsistent between the lenses is **missing**: its
 visibility flag is False, and its features are those :class:`MarkerSensor` gives a marker
 out of view (``missing="projection"``: the projection of its centre, which every controller
-here uses regardless of the flag), or the last features detected for it (``missing="hold"``;
-the projection until it was first detected). A policy per method for frames with missing
-features belongs to the dropout disturbance, not to this sensor.
+here uses regardless of the flag), the last features detected for it (``missing="hold"``;
+the projection until it was first detected), or NaN (``missing="nan"``: nothing the images did
+not show; a controller wrapped in
+:class:`~ibvs_youla.simulation.disturbances.policy.HoldOnMissingFeatures` then withholds the
+frame, as ``Disturbances(rendered_images=True)`` does). What a method does with such a frame is
+that policy's, not this sensor's.
 
 The goal features (``features_at``, used for the target) are the true projections, as with
 :class:`MarkerSensor`: the images change what the controller measures, not what it is asked
@@ -52,7 +55,7 @@ from .sensor import MarkerSensor
 
 __all__ = ["MISSING_POLICIES", "ImageObservation", "ImageSensor"]
 
-MISSING_POLICIES = ("projection", "hold")
+MISSING_POLICIES = ("projection", "hold", "nan")
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,7 +87,7 @@ class ImageSensor:
         markers: Size, facing and grey levels of the discs; default 5 cm discs facing the camera.
         imaging: Blur, noise (seeded by ``imaging.seed``) and supersampling; default none.
         detector: Detector settings; default the moments detector.
-        missing: ``"projection"`` or ``"hold"``: the features of a missing marker.
+        missing: ``"projection"``, ``"hold"`` or ``"nan"``: the features of a missing marker.
         row_tolerance_px: Largest |v_l - v_r| of a marker's two detections [px], >= 0.
         gate_fraction: Association gate beyond 1 px, in equivalent radii of the predicted
             ellipse, >= 0.
@@ -217,6 +220,8 @@ class ImageSensor:
         fallback = features_true.reshape(n, per)
         if self.missing == "hold" and self._held is not None:
             fallback = self._held
+        elif self.missing == "nan":
+            fallback = np.full((n, per), np.nan)
         features = fallback.copy()
         if found.any():
             features[found] = camera.from_pixels(pixels[found])

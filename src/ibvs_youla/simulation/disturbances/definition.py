@@ -6,6 +6,9 @@
 branch in the loop; with every field at its default nothing is wrapped and the run is the
 undisturbed one, bit for bit:
 
+* images (:class:`~ibvs_youla.simulation.image_sensor.ImageSensor`): every frame rendered as
+  images (5 cm discs, blur, sensor noise) and the markers detected in them, in place of the true
+  projections; a marker the images do not show is missing (NaN), not filled in with the truth;
 * sensing (:mod:`.sensing`): pixel noise, quantization, dropouts, wrapped around the sensor,
   and a frame with a missing marker withheld from the controller (:mod:`.policy`);
 * calibration (:mod:`.calibration`): the controller's beliefs (camera, hand-eye transform,
@@ -15,8 +18,8 @@ undisturbed one, bit for bit:
 * timing (:mod:`.timing`): a latency of k camera frames, wrapped around the sensor (the camera
   and joint-loop rates are settings: ``SimulationSettings(camera_rate_hz=..., joint_rate_hz=...)``).
 
-The random draws (pixel noise, dropouts, marker errors) come from three independent streams of
-``numpy.random.SeedSequence(seed)``.
+The random draws (pixel noise, dropouts, marker errors, image noise) come from four independent
+streams of ``numpy.random.SeedSequence(seed)``.
 """
 
 from __future__ import annotations
@@ -39,6 +42,7 @@ _VECTORS = {  # tuple fields -> length
     "marker_offset_m": 3,
 }
 SENSING = ("pixel_noise_px", "quantize", "dropout_probability", "principal_point_offset_px")
+IMAGES = ("rendered_images", "image_blur_px", "image_noise_grey")
 CALIBRATION = (
     "focal_length_scale",
     "baseline_scale",
@@ -53,7 +57,7 @@ PLANT = ("plant_inertia_scale", "viscous_friction", "coulomb_friction", "limit_s
 _PARAMETERS = {  # a parameter of other disturbances -> those disturbances
     "normalized_focal_px": ("pixel_noise_px", "quantize", "dropout_probability", "principal_point_offset_px"),
     "coulomb_speed": ("coulomb_friction",),
-    "seed": ("pixel_noise_px", "dropout_probability", "marker_sigma_m"),
+    "seed": ("pixel_noise_px", "dropout_probability", "marker_sigma_m", "image_noise_grey"),
 }
 
 
@@ -84,6 +88,15 @@ class Disturbances:
         pixel_noise_px: Standard deviation of Gaussian noise on every image coordinate [px].
         quantize: Round every image coordinate to the centre of its pixel.
         dropout_probability: Probability that a marker is missing from a frame, in [0, 1).
+        rendered_images: Measure every frame in rendered images, the markers detected in them
+            (:class:`~ibvs_youla.simulation.image_sensor.ImageSensor`: 5 cm discs facing the
+            camera, the moments detector, ``missing="nan"``), instead of the true projections;
+            a frame with a missing marker is withheld from the controller (:mod:`.policy`).
+            Needs a camera with pixels (not ``PinholeCamera.normalized()``).
+        image_blur_px: Standard deviation of the rendered images' Gaussian blur [px] (needs
+            ``rendered_images``).
+        image_noise_grey: Standard deviation of the rendered images' sensor noise [grey levels,
+            on a disc-to-background contrast of 170] (needs ``rendered_images``).
         normalized_focal_px: Focal length [px] that gives the normalized camera (F = 1, no
             pixels) a pixel grid for the sensing disturbances: sigma_px pixels are sigma_px /
             normalized_focal_px in normalized coordinates (default 800 px: a 640 x 480 camera
@@ -108,12 +121,15 @@ class Disturbances:
     Raises:
         InvalidParameterError: a negative noise, latency, friction or sigma; a scale <= 0; a
             dropout probability outside [0, 1); a vector of the wrong length; a seed or
-            latency that is not an integer.
+            latency that is not an integer; image blur or noise without ``rendered_images``.
     """
 
     pixel_noise_px: float = 0.0
     quantize: bool = False
     dropout_probability: float = 0.0
+    rendered_images: bool = False
+    image_blur_px: float = 0.0
+    image_noise_grey: float = 0.0
     normalized_focal_px: float = 800.0
     focal_length_scale: float = 1.0
     baseline_scale: float = 1.0
@@ -134,9 +150,22 @@ class Disturbances:
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         set_(self, "pixel_noise_px", non_negative(self.pixel_noise_px, "pixel_noise_px", unit="px"))
-        if not isinstance(self.quantize, (bool, np.bool_)):
-            raise InvalidParameterError("quantize", self.quantize, "True or False")
-        set_(self, "quantize", bool(self.quantize))
+        for name in ("quantize", "rendered_images"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise InvalidParameterError(name, getattr(self, name), "True or False")
+            set_(self, name, bool(getattr(self, name)))
+        set_(self, "image_blur_px", non_negative(self.image_blur_px, "image_blur_px", unit="px"))
+        set_(
+            self,
+            "image_noise_grey",
+            non_negative(self.image_noise_grey, "image_noise_grey", unit="grey levels"),
+        )
+        if not self.rendered_images and (self.image_blur_px or self.image_noise_grey):
+            raise InvalidParameterError(
+                "image_blur_px, image_noise_grey",
+                (self.image_blur_px, self.image_noise_grey),
+                "zero without rendered_images=True (they describe the rendered images)",
+            )
         p = non_negative(self.dropout_probability, "dropout_probability")
         if p >= 1.0:
             raise InvalidParameterError("dropout_probability", p, "a probability in [0, 1)")
@@ -227,7 +256,8 @@ class Disturbances:
         Raises:
             InvalidParameterError: plant inertias, friction or limits on a plant other than
                 ``"dynamic"`` (the kinematic arm and the free camera have no dynamics); a
-                hand-eye error without an arm; a baseline error of a monocular camera.
+                hand-eye error without an arm; a baseline error of a monocular camera;
+                rendered images of a camera without pixels (the normalized camera).
         """
         if plant != "dynamic" and self.plant_changed:
             names = [n for n in PLANT if getattr(self, n) != getattr(_DEFAULT, n)]
@@ -241,6 +271,15 @@ class Disturbances:
             raise InvalidParameterError(
                 "disturbances", "hand_eye_*", "zero on the free camera (no arm, no hand-eye transform)"
             )
+        if self.rendered_images:
+            from ..rendering import check_camera_has_pixels
+
+            try:
+                check_camera_has_pixels(camera)
+            except InvalidParameterError as err:
+                raise InvalidParameterError(
+                    "rendered_images", True, f"False for camera {err.value}: rendering needs {err.valid}"
+                ) from None
         if self.baseline_scale != 1.0 and not hasattr(camera, "baseline"):
             raise InvalidParameterError(
                 "baseline_scale", self.baseline_scale, f"1.0 for a {type(camera).__name__} (no baseline)"
@@ -248,7 +287,7 @@ class Disturbances:
 
     # ------------------------------------------------------------------ assembly
     def generators(self) -> tuple[np.random.Generator, np.random.Generator, np.random.Generator]:
-        """(noise, dropout, marker) generators: three independent streams of SeedSequence(seed)."""
+        """(noise, dropout, marker) generators: the first three streams of SeedSequence(seed)."""
         noise, dropout, markers = np.random.SeedSequence(self.seed).spawn(3)
         return (
             np.random.default_rng(noise),
@@ -256,11 +295,36 @@ class Disturbances:
             np.random.default_rng(markers),
         )
 
+    @property
+    def image_seed(self) -> int:
+        """Seed of the rendered images' noise: the fourth stream of SeedSequence(seed)."""
+        return int(np.random.SeedSequence(self.seed).spawn(4)[3].generate_state(1)[0])
+
     def wrap_sensor(self, sensor: Any, noise_rng: Any, dropout_rng: Any) -> Any:
-        """The sensor with the sensing disturbances and the latency around it (or itself)."""
+        """The sensor with the images, the sensing disturbances and the latency around it (or itself).
+
+        Raises:
+            InvalidParameterError: ``rendered_images`` around a sensor other than the true
+                :class:`~ibvs_youla.simulation.sensor.MarkerSensor` (e.g. ``sensor="images"``:
+                give one or the other).
+        """
         from .sensing import DisturbedSensor
         from .timing import DelayedSensor
 
+        if self.rendered_images:
+            from ..image_sensor import ImageSensor
+            from ..rendering import ImagingSettings
+            from ..sensor import MarkerSensor
+
+            if not isinstance(sensor, MarkerSensor):
+                raise InvalidParameterError(
+                    "sensor",
+                    type(sensor).__name__,
+                    "the ideal sensor (None or 'ideal') with rendered_images=True, which renders the "
+                    "images itself; or sensor='images' (or a function) without rendered_images",
+                )
+            imaging = ImagingSettings(self.image_blur_px, self.image_noise_grey, seed=self.image_seed)
+            sensor = ImageSensor(sensor, imaging=imaging, missing="nan")
         if self._any(SENSING):
             sensor = DisturbedSensor(
                 sensor,
@@ -277,10 +341,12 @@ class Disturbances:
         return sensor
 
     def wrap_controller(self, controller: Any) -> Any:
-        """The controller, holding on frames with missing features when dropouts are on."""
+        """The controller, holding on frames with missing features (dropouts or rendered images)."""
         from .policy import HoldOnMissingFeatures
 
-        return HoldOnMissingFeatures(controller) if self.dropout_probability else controller
+        if self.dropout_probability or self.rendered_images:
+            return HoldOnMissingFeatures(controller)
+        return controller
 
     def plant_arm(self, arm: Any) -> Any:
         """The dynamic plant's arm: ``arm`` itself, or a :class:`~.plant_arm.PlantArm` around it."""

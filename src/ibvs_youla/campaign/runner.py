@@ -59,6 +59,7 @@ __all__ = [
 ]
 
 _LOG = logging.getLogger(__name__)
+_TERMINATED = threading.Event()  # SIGTERM came during this campaign (_sigterm_interrupts)
 CONNECT_TIMEOUT_S = 10.0  # to reach an existing scheduler [s]
 TASKS_PER_THREAD = 4  # tasks in flight per worker thread (at least MIN_WINDOW in all)
 MIN_WINDOW = 32
@@ -263,13 +264,27 @@ def _sigterm_interrupts() -> Iterator[None]:
         return
 
     def interrupt(signum: int, frame: Any) -> None:
+        _TERMINATED.set()
         raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
 
+    _TERMINATED.clear()
     previous = signal.signal(signal.SIGTERM, interrupt)
     try:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def _stop_if_terminated() -> None:
+    """Raise ``KeyboardInterrupt`` if SIGTERM came, even when its exception never reached the client.
+
+    The handler raises wherever the main thread is: inside a run, an exception raised in a
+    finalizer is printed and dropped by Python, and a library may turn it into an error of its
+    own, which the run stores as an ``error`` row. Checked after every run, before its row is
+    stored: the run the signal landed in is not stored (it runs again on resume).
+    """
+    if _TERMINATED.is_set():
+        raise KeyboardInterrupt("signal SIGTERM")
 
 
 @contextlib.contextmanager
@@ -340,6 +355,7 @@ def _run_here(
 
     for spec in pending:
         row, result = run_spec_with_result(spec)
+        _stop_if_terminated()
         _store(row, result if series else None, writer, summary, bar, path)
 
 
@@ -390,6 +406,7 @@ def _collect(
     in_flight: dict[Any, ExperimentSpec] = {}
     window = _window(client)
     while queue or in_flight or suspects:
+        _stop_if_terminated()
         if queue and len(in_flight) < window:
             chunk = [queue.pop() for _ in range(min(window - len(in_flight), len(queue)))]
             futures = client.map(function, [s.to_json() for s in chunk], pure=False, retries=2)

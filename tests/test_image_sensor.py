@@ -50,7 +50,9 @@ def test_a_monocular_camera_gives_u_v_per_marker():
         np.eye(4), 0.0
     )
     assert frame.features.shape == (8,) and frame.visible.all()
-    assert np.abs(frame.features - truth.measure(np.eye(4), 0.0).features).max() / PITCH < 0.2
+    # measured 0.037 px with seed 0, at most 0.059 px over noise seeds 0-29 (0.016 px without blur
+    # and noise): 0.1 px holds every seed with a margin, 0.2 px did not bound the detector
+    assert np.abs(frame.features - truth.measure(np.eye(4), 0.0).features).max() / PITCH < 0.1
 
 
 def test_a_marker_outside_one_image_is_missing_and_gets_its_projection():
@@ -152,15 +154,18 @@ def run(sensor, duration=2.0):
 def test_classical_ibvs_converges_on_detected_centres():
     """Stereo IBVS, gain 3 1/s, 2 s at 100 Hz, on features detected in 200 rendered stereo pairs.
 
-    Measured: feature error 2.45e-4 -> 5.4e-7 m on the sensor (0.07 px), final pose error
-    0.55 mm / 0.012 deg (ideal sensor: 0.21 mm / 0.011 deg); bounds 2x.
+    Measured: feature error 2.45e-4 -> 5.43e-7 m on the sensor (0.07 px), final pose error
+    0.5534 mm / 0.01212 deg (ideal sensor: 0.21 mm / 0.011 deg). The run is deterministic (noiseless
+    renders) and the loop contracts: a start moved by 0.1 um changes these by 2e-4 relative, so they
+    are pinned to 1 % (the former bounds, 2x the values, let the detection floor double unseen).
     """
     images, ideal = run("images"), run(None)
     assert images.status == ideal.status == "complete" and images.frame_visible.all()
     e0, e1 = (np.linalg.norm(images.feature_error[i]) for i in (0, -1))
-    assert e1 / e0 < 5e-3
+    assert e1 / e0 == pytest.approx(2.2208e-3, rel=0.01)
     mm, deg = images.final_pose_error()
-    assert mm < 1.1 and deg < 0.025
+    assert mm == pytest.approx(0.5534, rel=0.01) and deg == pytest.approx(0.01212, rel=0.01)
+    assert mm > 2.0 * ideal.final_pose_error()[0]  # the detection floor is there: ideal 0.207 mm
     assert not np.array_equal(images.frame_features, ideal.frame_features)
     np.testing.assert_array_equal(images.feature_target, ideal.feature_target)  # the goal is unchanged
     assert images.metadata["spec"]["sensor"]["name"] == "images" and "sensor" not in ideal.metadata["spec"]

@@ -224,7 +224,10 @@ def test_a_hand_eye_error_displaces_a_pose_regulated_camera_by_itself(arm):
             arm=arm,
             disturbances=wrong,
         )
-        assert servo.final_pose_error()[0] < 1e-3  # [mm]; 3e-5 mm without the error
+        # [mm]: measured 3.2e-5 (ibvs-current) and 8.9e-6 (pbvs) with the error, 3.2e-5 and 9.3e-6
+        # without: the residual of the gain-2 exponential after 8 s, which the error does not raise;
+        # 1e-4 mm is 3x the larger (1e-3 mm, 30x, would let a 30-fold offset pass)
+        assert servo.final_pose_error()[0] < 1e-4
 
 
 # ---------------------------------------------------------------------- model mismatch
@@ -243,9 +246,12 @@ def test_mismatch_and_friction_raise_the_inner_tracking_error_but_the_image_loop
     def tracking_deg(r):
         return np.degrees(np.abs(r.q_ref - r.q)[late].max())
 
-    # measured 0.0079 deg nominal, 0.110 deg with the mismatch: no integral action against friction
+    # measured 0.0079 deg nominal, 0.1066 deg with the mismatch: no integral action against friction.
+    # Both runs are deterministic: the mismatched value is pinned to 1 % (room for another BLAS's
+    # summation order, not for another friction law), where 0.08-0.15 deg allowed -25 % to +40 %
     assert tracking_deg(nominal) < 0.01
-    assert 0.08 < tracking_deg(mismatched) < 0.15
+    assert tracking_deg(mismatched) == pytest.approx(0.1066, rel=0.01)
     assert np.degrees(np.abs(mismatched.q_true - nominal.q_true).max()) > 0.05  # another response
     # the image loop takes the camera in at the same pace: pose error at 3 s within 5 % of nominal
+    # (measured 30.70 mm against 29.89 mm, +2.7 %)
     assert mismatched.final_pose_error()[0] == pytest.approx(nominal.final_pose_error()[0], rel=0.05)

@@ -62,7 +62,9 @@ def test_first_order_bias_matches_the_exact_conic_centre_to_fourth_order():
         assert np.all(residual <= 0.6 * F_PX * (r / P[:, 2]) ** 4)
         assert np.abs(exact - projected).max() > 100 * residual.max()  # the bias is real, and it is (B)
         residuals.append(residual)
-    assert np.median(residuals[0] / residuals[1]) == pytest.approx(16.0, rel=0.02)
+    # every disc, not only the median: the next order is (r/Z)^2 <= 0.0097 relative for these discs,
+    # so each ratio is 16 to 1 % (measured 15.985 to 16.064, median 16.003)
+    np.testing.assert_allclose(residuals[0] / residuals[1], 16.0, rtol=0.01)
 
 
 def test_the_bias_of_a_5cm_disc_at_half_a_metre_is_a_third_of_a_pixel():

@@ -166,7 +166,7 @@ def test_kabsch_and_stereo_pose_equal_the_references():
         )
         T_est, bad = camera_pose_from_features(features, params, True, P_O - mean, mean)
         assert bad == -1
-        np.testing.assert_allclose(T_est, reference, atol=1e-11)
+        np.testing.assert_allclose(T_est, reference, atol=1e-12)  # the docstring's 1e-12 (measured 6.5e-14)
 
 
 def test_nearest_branch_compiled_equals_nearest_branch(arm):

@@ -293,6 +293,20 @@ def text(value: Any, name: str, *, empty: bool = True) -> str:
     raise InvalidParameterError(name, value, "a string" if empty else "a non-empty string")
 
 
+def is_pair(value: Any) -> bool:
+    """Whether ``value`` is two entries, e.g. a tuple or a (2,) array (not a string; not ragged).
+
+    ``np.shape`` of a ragged sequence such as ``(1.0, [2.0])`` raises numpy's ``ValueError``;
+    here it is simply not a pair, so the caller raises its own error naming the argument.
+    """
+    if isinstance(value, str):
+        return False
+    try:
+        return np.shape(value) == (2,)
+    except ValueError:
+        return False
+
+
 def one_of(value: Any, name: str, choices: Sequence[str]) -> str:
     """Return ``value`` after checking it is a string among ``choices``.
 

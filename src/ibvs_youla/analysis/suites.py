@@ -60,7 +60,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._validation import one_of, positive, real, text
+from .._validation import is_pair, one_of, positive, real, text
 from ..exceptions import InvalidParameterError
 from .compare import Comparison, compare
 
@@ -151,7 +151,7 @@ class GansTask:
         for field_name in ("rotation_deg", "retreat_m", "orbit_deg"):
             set_(self, field_name, real(getattr(self, field_name), field_name))
         lateral = self.lateral_m
-        if isinstance(lateral, str) or np.shape(lateral) != (2,):
+        if not is_pair(lateral):
             raise InvalidParameterError("lateral_m", lateral, "(l_x, l_y): two finite numbers [m]")
         set_(self, "lateral_m", tuple(real(v, "lateral_m") for v in lateral))
         if Z_TARGET + self.retreat_m <= 0.05:

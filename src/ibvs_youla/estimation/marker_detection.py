@@ -43,7 +43,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from .._validation import as_array, non_negative, one_of, positive
+from .._validation import as_array, is_pair, non_negative, one_of, positive
 from ..exceptions import InvalidArrayError, InvalidParameterError
 
 __all__ = ["DETECTION_METHODS", "Blobs", "DetectorSettings", "associate", "detect_blobs"]
@@ -96,7 +96,7 @@ class DetectorSettings:
             raise InvalidParameterError("margin_px", margin, "an integer >= 1 [px]")
         object.__setattr__(self, "margin_px", int(margin))
         radii = self.hough_radius_px
-        ok = np.shape(radii) == (2,) and all(
+        ok = is_pair(radii) and all(
             isinstance(r, (int, np.integer)) and not isinstance(r, bool) for r in radii
         )
         if not ok or radii[0] < 1 or radii[1] < 0 or (radii[1] and radii[1] < radii[0]):

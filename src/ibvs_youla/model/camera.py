@@ -21,7 +21,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .._validation import as_array, flag, non_negative, one_of, positive, real, text
+from .._validation import as_array, flag, is_pair, non_negative, one_of, positive, real, text
 from ..exceptions import InvalidDisparityError, InvalidParameterError, PointBehindCameraError
 
 __all__ = ["PinholeCamera", "StereoCamera", "Visibility", "default_camera"]
@@ -174,14 +174,14 @@ class _Sensor:
         pp = self.principal_point
         if pp is None:
             pp = (0.5 * self.sensor_width / self.pixel_pitch, 0.5 * self.sensor_height / self.pixel_pitch)
-        elif isinstance(pp, str) or np.shape(pp) != (2,):
+        elif not is_pair(pp):
             raise InvalidParameterError("principal_point", pp, pp_valid)
         try:
             set_(self, "principal_point", tuple(real(v, "principal_point") for v in pp))
         except InvalidParameterError:
             raise InvalidParameterError("principal_point", self.principal_point, pp_valid) from None
         range_valid = "(min, max) with 0 <= min < max [m]"
-        if isinstance(self.depth_range, str) or np.shape(self.depth_range) != (2,):
+        if not is_pair(self.depth_range):
             raise InvalidParameterError("depth_range", self.depth_range, range_valid)
         try:
             lo, hi = (non_negative(v, "depth_range") for v in self.depth_range)

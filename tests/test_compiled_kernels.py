@@ -466,3 +466,37 @@ def test_poses_match_is_the_largest_entry_difference_test():
     T2 = T.copy()
     T2[1, 2] = np.nan
     assert not poses_match(T2, T, 1e-9) and poses_match(T, T, 0.0)
+
+
+def test_theta_u_compiled_is_scipy_from_matrix_as_rotvec_bit_for_bit():
+    from scipy.spatial.transform import Rotation
+
+    from ibvs_youla.controllers.pbvs import theta_u
+    from ibvs_youla.model.rotation_kernels import theta_u_compiled
+
+    rng = np.random.default_rng(SEED + 14)
+    mats = list(Rotation.random(4000, rng=rng).as_matrix())
+    for angle in (0.0, 1e-12, 1e-6, 9.99e-4, 1e-3, 1.001e-3, 0.5, 3.0, np.pi - 1e-7, np.pi):  # both branches
+        axes = rng.normal(size=(60, 3))
+        mats += list(Rotation.from_rotvec(angle * axes / np.linalg.norm(axes, axis=1)[:, None]).as_matrix())
+    mats += [np.diag(d) for d in ([1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0], [1.0, 1.0, 1.0])]
+    for _ in range(1000):  # products: orthogonal to the last bits only, as a PnP's R
+        A, B = Rotation.random(2, rng=rng).as_matrix()
+        mats.append(A.T @ B @ A @ B.T @ A)
+    out, compiled = np.empty(3), 0
+    for R in mats:
+        expected = Rotation.from_matrix(R).as_rotvec()
+        assert theta_u_compiled(R, out)
+        np.testing.assert_array_equal(out, expected)
+        np.testing.assert_array_equal(theta_u(R), expected)
+        compiled += 1
+    assert compiled == len(mats) > 5000
+    # what scipy orthogonalizes (or refuses) is left to scipy: the kernel declines it
+    for scale in (1e-11, 1e-6):
+        R = Rotation.random(rng=rng).as_matrix() + rng.normal(scale=scale, size=(3, 3))
+        assert not theta_u_compiled(R, out)
+        np.testing.assert_array_equal(theta_u(R), Rotation.from_matrix(R).as_rotvec())
+    for bad in (np.diag([1.0, 1.0, -1.0]), np.full((3, 3), np.nan)):
+        assert not theta_u_compiled(bad, out)
+        with pytest.raises(ValueError), np.errstate(invalid="ignore"):
+            theta_u(bad)

@@ -261,13 +261,16 @@ class MpcIBVS(Controller):
 
         The cost is J / (2 T^2) (module docstring); the speed bounds are separate (``lb``, ``ub``).
         """
-        F, T = self._F, self._T
+        F, T, N = self._F, self._T, self.horizon
         L = self.interaction_matrix(features) / F  # on normalized features
         e0 = (features - self._target) / F
-        P = self.q_weight * np.kron(self._W, L.T.dot(L)) + self._R_diag
-        q = (self.q_weight / T) * np.kron(self._w, L.T.dot(e0))
-        G = np.kron(self._lower, self._A_img.dot(L))  # image rows of s_j, j = 1..N
-        h = np.tile((self._b_img - self._A_img.dot(features / F)) / T, self.horizon)
+        P = _kron(self._W, L.T.dot(L))
+        P *= self.q_weight
+        P += self._R_diag
+        q = _kron(self._w[:, None], L.T.dot(e0)[None, :]).reshape(6 * N)
+        q *= self.q_weight / T
+        G = _kron(self._lower, self._A_img.dot(L))  # image rows of s_j, j = 1..N
+        h = np.tile((self._b_img - self._A_img.dot(features / F)) / T, N)
         return P, q, G, h
 
     def _solve(self, P: np.ndarray, q: np.ndarray, G: np.ndarray, h: np.ndarray) -> np.ndarray | None:
@@ -313,6 +316,18 @@ class MpcIBVS(Controller):
             "qp_active": self._active,
             "qp_infeasible_frames": self._infeasible,
         }
+
+
+def _kron(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``np.kron(A, B)`` of two matrices, the same floats (each entry one product A[i, k] B[a, b]).
+
+    A new (rows, cols) array filled by one broadcast multiplication, without ``np.kron``'s
+    general n-dimensional glue (about 10 us of each of the QP's three Kronecker products).
+    """
+    (n, m), (p, r) = A.shape, B.shape
+    out = np.empty((n, p, m, r))
+    np.multiply(A[:, None, :, None], B[None, :, None, :], out=out)
+    return out.reshape(n * p, m * r)
 
 
 REGISTRATIONS = (

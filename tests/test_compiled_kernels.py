@@ -543,4 +543,3 @@ def test_twist_chain_integrating_in_the_compiled_call_gives_the_adapters_command
             np.testing.assert_array_equal(fused_int(other, reading), plain_int(other, reading))
             continue
         np.testing.assert_array_equal(fused_int(dq_fused, reading), plain_int(dq_plain, reading))
-    np.testing.assert_array_equal(fused_int.q_ref, plain_int.q_ref)

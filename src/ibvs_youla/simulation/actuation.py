@@ -88,11 +88,9 @@ class TwistToJointVelocity:
                 if pseudo_inverse_apply(J_C, twist, self._damped, self._threshold, dq_ref):
                     return dq_ref
             else:
-                q_next = np.empty(n)
-                if pseudo_inverse_integrate(
-                    J_C, twist, self._damped, self._threshold, integrator.q_ref, integrator.dt, dq_ref, q_next
-                ):
-                    integrator.hold(dq_ref, q_next)
+                q_next, q_ref, dt, damped = np.empty(n), integrator._q_ref, integrator._dt, self._damped
+                if pseudo_inverse_integrate(J_C, twist, damped, self._threshold, q_ref, dt, dq_ref, q_next):
+                    integrator._held = (dq_ref, q_next)  # for integrator(dq_ref, reading)
                     return dq_ref
         return self._policy.pseudo_inverse(J_C) @ twist
 
@@ -110,29 +108,18 @@ class VelocityToPosition:
     def __init__(self, q_start: np.ndarray, dt: float) -> None:
         self._q_ref = np.array(q_start, dtype=float)
         self._dt = float(dt)
-        self._held: tuple[np.ndarray, np.ndarray] | None = None  # (dq_ref, its q_ref), from hold()
-
-    @property
-    def q_ref(self) -> np.ndarray:
-        """The reference so far (n,) [rad] (not to be modified)."""
-        return self._q_ref
-
-    @property
-    def dt(self) -> float:
-        """Tick period [s]."""
-        return self._dt
-
-    def hold(self, dq_ref: np.ndarray, q_ref_next: np.ndarray) -> None:
-        """Keep ``q_ref_next`` = q_ref + dt dq_ref, computed by the previous link, for ``self(dq_ref)``."""
-        self._held = (dq_ref, q_ref_next)
+        # (dq_ref, q_ref + dt dq_ref) computed by TwistToJointVelocity (integrate_into) for the next call
+        self._held: tuple[np.ndarray, np.ndarray] | None = None
 
     def __call__(self, dq_ref: np.ndarray, reading: JointReading) -> np.ndarray:
         """The integrated reference (n,) [rad]."""
-        held, self._held = self._held, None
-        if held is not None and held[0] is dq_ref:  # integrated already (hold), this very array
-            self._q_ref = held[1]
-        else:
-            self._q_ref = self._q_ref + self._dt * dq_ref
+        held = self._held
+        if held is not None:
+            self._held = None
+            if held[0] is dq_ref:  # integrated already, this very array
+                self._q_ref = held[1]
+                return held[1]
+        self._q_ref = self._q_ref + self._dt * dq_ref
         return self._q_ref
 
 

@@ -83,6 +83,7 @@ from ..exceptions import InvalidParameterError
 from ..model.camera import StereoCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
 from .image_points import CurrentInteraction, feature_rows
+from .mpc_kernels import qp_blocks
 
 __all__ = ["FALLBACKS", "REGISTRATIONS", "MpcIBVS"]
 
@@ -264,12 +265,24 @@ class MpcIBVS(Controller):
         F, T, N = self._F, self._T, self.horizon
         L = self.interaction_matrix(features) / F  # on normalized features
         e0 = (features - self._target) / F
-        P = _kron(self._W, L.T.dot(L))
-        P *= self.q_weight
-        P += self._R_diag
-        q = _kron(self._w[:, None], L.T.dot(e0)[None, :]).reshape(6 * N)
-        q *= self.q_weight / T
-        G = _kron(self._lower, self._A_img.dot(L))  # image rows of s_j, j = 1..N
+        AL = self._A_img.dot(L)
+        P, q, G = np.empty((6 * N, 6 * N)), np.empty(6 * N), np.empty((N * AL.shape[0], 6 * N))
+        # P = q_weight kron(W, L^T L) + R, q = (q_weight / T) kron(w, L^T e0), G = kron(lower, A L):
+        # the image rows of s_j, j = 1..N; in one compiled call, the same floats
+        qp_blocks(
+            self._W,
+            self._w,
+            self._lower,
+            L.T.dot(L),
+            L.T.dot(e0),
+            AL,
+            self.q_weight,
+            self.q_weight / T,
+            self._R_diag,
+            P,
+            q,
+            G,
+        )
         h = np.tile((self._b_img - self._A_img.dot(features / F)) / T, N)
         return P, q, G, h
 
@@ -316,18 +329,6 @@ class MpcIBVS(Controller):
             "qp_active": self._active,
             "qp_infeasible_frames": self._infeasible,
         }
-
-
-def _kron(A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """``np.kron(A, B)`` of two matrices, the same floats (each entry one product A[i, k] B[a, b]).
-
-    A new (rows, cols) array filled by one broadcast multiplication, without ``np.kron``'s
-    general n-dimensional glue (about 10 us of each of the QP's three Kronecker products).
-    """
-    (n, m), (p, r) = A.shape, B.shape
-    out = np.empty((n, p, m, r))
-    np.multiply(A[:, None, :, None], B[None, :, None, :], out=out)
-    return out.reshape(n * p, m * r)
 
 
 REGISTRATIONS = (

@@ -164,14 +164,16 @@ class DiscreteFilter:
             raise InvalidParameterError("sys", sys, "a SISO control.TransferFunction or StateSpace")
         if sys.isdtime(strict=True):
             raise InvalidParameterError("sys", sys, "a continuous-time system (dt = 0)")
-        key = (_system_key(sys), dt, method, prewarp_frequency)
+        w = None  # the prewarp frequency, used (and checked) with Tustin only
+        if method == "tustin" and prewarp_frequency is not None:
+            w = positive(prewarp_frequency, "prewarp_frequency", unit="rad/s")
+        key = (_system_key(sys), dt, method, w)
         matrices = _DISCRETIZED.get(key)
         if matrices is None:
             ss = ct.ss(sys)
-            if method == "tustin" and prewarp_frequency is not None:
+            if w is not None:
                 # Prewarped bilinear: s = (w / tan(w dt / 2)) (z - 1)/(z + 1), i.e. Tustin at a
                 # scaled sampling period; cont2discrete's gbt has no prewarp option.
-                w = positive(prewarp_frequency, "prewarp_frequency", unit="rad/s")
                 dt_eff = 2.0 * np.tan(w * dt / 2.0) / w
                 Ad, Bd, Cd, Dd, _ = cont2discrete((ss.A, ss.B, ss.C, ss.D), dt_eff, method="bilinear")
             else:

@@ -24,7 +24,7 @@ from ibvs_youla._linalg import gesdd
 from ibvs_youla.control.discrete import DiscreteFilter, filter_step
 from ibvs_youla.control.outer import OuterLoopDesign
 from ibvs_youla.control.singular_values import SingularValuePolicy
-from ibvs_youla.control.svd_kernels import pseudo_inverse_apply, svd_gains_apply
+from ibvs_youla.control.svd_kernels import pseudo_inverse_apply, pseudo_inverse_integrate, svd_gains_apply
 from ibvs_youla.estimation.stereo_kernels import camera_pose_from_features, kabsch_centred_compiled
 from ibvs_youla.estimation.stereo_pose import kabsch_centred
 from ibvs_youla.exceptions import InvalidDisparityError, PointBehindCameraError
@@ -466,3 +466,80 @@ def test_poses_match_is_the_largest_entry_difference_test():
     T2 = T.copy()
     T2[1, 2] = np.nan
     assert not poses_match(T2, T, 1e-9) and poses_match(T, T, 0.0)
+
+
+def test_theta_u_compiled_is_scipy_from_matrix_as_rotvec_bit_for_bit():
+    from scipy.spatial.transform import Rotation
+
+    from ibvs_youla.controllers.pbvs import theta_u
+    from ibvs_youla.model.rotation_kernels import theta_u_compiled
+
+    rng = np.random.default_rng(SEED + 14)
+    mats = list(Rotation.random(4000, rng=rng).as_matrix())
+    for angle in (0.0, 1e-12, 1e-6, 9.99e-4, 1e-3, 1.001e-3, 0.5, 3.0, np.pi - 1e-7, np.pi):  # both branches
+        axes = rng.normal(size=(60, 3))
+        mats += list(Rotation.from_rotvec(angle * axes / np.linalg.norm(axes, axis=1)[:, None]).as_matrix())
+    mats += [np.diag(d) for d in ([1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0], [1.0, 1.0, 1.0])]
+    for _ in range(1000):  # products: orthogonal to the last bits only, as a PnP's R
+        A, B = Rotation.random(2, rng=rng).as_matrix()
+        mats.append(A.T @ B @ A @ B.T @ A)
+    out, compiled = np.empty(3), 0
+    for R in mats:
+        expected = Rotation.from_matrix(R).as_rotvec()
+        assert theta_u_compiled(R, out)
+        np.testing.assert_array_equal(out, expected)
+        np.testing.assert_array_equal(theta_u(R), expected)
+        compiled += 1
+    assert compiled == len(mats) > 5000
+    # what scipy orthogonalizes (or refuses) is left to scipy: the kernel declines it
+    for scale in (1e-11, 1e-6):
+        R = Rotation.random(rng=rng).as_matrix() + rng.normal(scale=scale, size=(3, 3))
+        assert not theta_u_compiled(R, out)
+        np.testing.assert_array_equal(theta_u(R), Rotation.from_matrix(R).as_rotvec())
+    for bad in (np.diag([1.0, 1.0, -1.0]), np.full((3, 3), np.nan)):
+        assert not theta_u_compiled(bad, out)
+        with pytest.raises(ValueError), np.errstate(invalid="ignore"):
+            theta_u(bad)
+
+
+def test_pseudo_inverse_integrate_is_pseudo_inverse_apply_then_numpys_integration():
+    """y bit for bit that of pseudo_inverse_apply, q_next the floats of numpy's q_prev + dt * y."""
+    policy = SingularValuePolicy()
+    rng = np.random.default_rng(SEED + 15)
+    for rank in (6, 5, 3):
+        for _ in range(300):
+            J = rng.normal(size=(6, rank)) @ rng.normal(size=(rank, 6))
+            x, q_prev = rng.normal(size=6), rng.normal(size=6) * 3.0
+            dt = float(rng.choice([1e-3, 4e-2, 0.1 * rng.random()]))
+            y_ref, y, q_next = np.empty(6), np.empty(6), np.empty(6)
+            assert pseudo_inverse_apply(J, x, True, policy.threshold, y_ref)
+            assert pseudo_inverse_integrate(J, x, True, policy.threshold, q_prev, dt, y, q_next)
+            np.testing.assert_array_equal(y, y_ref)
+            np.testing.assert_array_equal(q_next, q_prev + dt * y_ref)
+    q_next = np.full(6, 7.0)
+    zero = np.zeros((6, 6))
+    assert not pseudo_inverse_integrate(zero, np.ones(6), True, 1e-3, np.zeros(6), 1e-3, np.empty(6), q_next)
+    np.testing.assert_array_equal(q_next, 7.0)  # not written when the reference must run
+
+
+def test_twist_chain_integrating_in_the_compiled_call_gives_the_adapters_commands(arm):
+    """TwistToJointVelocity.integrate_into: the same dq_ref and q_ref, tick after tick, as the two
+    links apart; a VelocityToPosition called with another array integrates that one."""
+    from ibvs_youla.controllers.base import JointReading
+    from ibvs_youla.simulation.actuation import TwistToJointVelocity, VelocityToPosition
+
+    rng = np.random.default_rng(SEED + 16)
+    q0 = np.array([0.1, -0.3, 0.4, 0.2, 0.7, -0.1])
+    plain_tw, plain_int = TwistToJointVelocity(arm), VelocityToPosition(q0, 1e-3)
+    fused_tw, fused_int = TwistToJointVelocity(arm), VelocityToPosition(q0, 1e-3)
+    fused_tw.integrate_into(fused_int)
+    for k in range(300):
+        reading = JointReading(k * 1e-3, q0 + rng.normal(0.0, 0.2, 6), rng.normal(size=6))
+        twist = rng.normal(0.0, 0.1, 6)
+        dq_plain, dq_fused = plain_tw(twist, reading), fused_tw(twist, reading)
+        np.testing.assert_array_equal(dq_fused, dq_plain)
+        if k % 50 == 7:  # not the array it integrated: integrated here, from the same reference
+            other = rng.normal(size=6)
+            np.testing.assert_array_equal(fused_int(other, reading), plain_int(other, reading))
+            continue
+        np.testing.assert_array_equal(fused_int(dq_fused, reading), plain_int(dq_plain, reading))

@@ -159,3 +159,40 @@ def test_validation_errors():
         filt.step(np.zeros(5))
     with pytest.raises(InvalidArrayError, match="square"):
         DiscreteFilter(np.zeros((2, 3)), np.zeros(2), np.zeros(2), 0.0, DT, 1)
+
+
+@pytest.mark.parametrize(
+    "method, prewarp", [("tustin", None), ("tustin", 30.0), ("zoh", None), ("foh", None)]
+)
+def test_from_tf_reuses_its_discretization_with_the_same_floats(method, prewarp):
+    """A transfer function discretized again (the same object, an equal one, its state space) gives the
+    matrices of the direct conversion bit for bit; another dt, method or system gives its own."""
+    from scipy.signal import cont2discrete
+
+    tau = 0.0123
+    systems = [ct.tf([3 * tau, 1], [tau**3, 3 * tau**2, 3 * tau, 1]) for _ in range(2)]
+    systems.append(ct.ss(systems[0]))
+    for dt in (1e-3, 7e-3):
+        ss = ct.ss(systems[0])
+        if prewarp is None:
+            direct = cont2discrete(
+                (ss.A, ss.B, ss.C, ss.D), dt, method={"tustin": "bilinear"}.get(method, method)
+            )
+        else:
+            dt_eff = 2.0 * np.tan(prewarp * dt / 2.0) / prewarp
+            direct = cont2discrete((ss.A, ss.B, ss.C, ss.D), dt_eff, method="bilinear")
+        for sys in systems * 2:
+            A, B, C, D = DiscreteFilter.from_tf(sys, dt, 3, method=method, prewarp_frequency=prewarp).matrices
+            np.testing.assert_array_equal(A, direct[0])
+            np.testing.assert_array_equal(B, direct[1][:, 0])
+            np.testing.assert_array_equal(C, direct[2][0])
+            assert D == direct[3][0, 0]
+    other = DiscreteFilter.from_tf(
+        ct.tf([1.0], [tau, 1.0]), 1e-3, 3, method=method, prewarp_frequency=prewarp
+    )
+    assert other.matrices[0].shape == (1, 1)
+    filt = DiscreteFilter.from_tf(systems[0], 1e-3, 2, method=method, prewarp_frequency=prewarp)
+    filt.step(np.ones(2))  # a filter's own state: the shared matrices are not written
+    np.testing.assert_array_equal(
+        DiscreteFilter.from_tf(systems[0], 1e-3, 2, method=method, prewarp_frequency=prewarp).state, 0.0
+    )

@@ -305,3 +305,30 @@ def test_registration_and_spec():
     assert (spec["horizon"], spec["margin"], spec["solver"], spec["fallback"]) == (3, 0.01, "daqp", "relax")
     assert spec["omega_max"] == pytest.approx(math.pi / 2)
     assert "Allibert" in summary
+
+
+@pytest.mark.parametrize("horizon, r_weight", [(1, 0.0), (5, 0.0), (7, 0.3)])
+def test_qp_matrices_are_the_kronecker_products_of_the_module_docstring(horizon, r_weight):
+    """P, q, G, h built without np.kron are the Kronecker formulas' floats, bit for bit."""
+    rng = np.random.default_rng(7)
+    for scenario in (TUTORIAL, BULGE, WILD):
+        task, start = task_of(scenario)
+        mpc = MpcIBVS(horizon=horizon, r_weight=r_weight, q_weight=1.7)
+        mpc.reset(task)
+        N, T, F = horizon, 0.04, task.camera.focal_length
+        a = 1.0 - mpc.gain * T
+        lower = np.tril(np.ones((N, N)))
+        W, w = lower.T.dot(lower), lower.T.dot(1.0 - a ** np.arange(1, N + 1))
+        A_img, b_img = mpc._A_img, mpc._b_img
+        for _ in range(20):
+            features = start + rng.normal(0.0, 0.05, start.shape)
+            L = mpc.interaction_matrix(features) / F
+            e0 = (features - task.feature_target) / F
+            expected = (
+                1.7 * np.kron(W, L.T.dot(L)) + (r_weight / T**2) * np.eye(6 * N),
+                (1.7 / T) * np.kron(w, L.T.dot(e0)),
+                np.kron(lower, A_img.dot(L)),
+                np.tile((b_img - A_img.dot(features / F)) / T, N),
+            )
+            for got, want in zip(mpc.qp(features), expected, strict=True):
+                np.testing.assert_array_equal(got, want)

@@ -67,7 +67,21 @@ def pose_error_series_mm_deg(T_O_A: np.ndarray, T_O_B: np.ndarray) -> tuple[np.n
 
 
 def exp_twist(xi: np.ndarray) -> np.ndarray:
-    """Return the 4x4 pose exp([v; w]) of a twist (linear part first, as Pinocchio)."""
-    import pinocchio as pin  # here, so that importing results (and viz) does not load Pinocchio
+    """Return the 4x4 pose exp([v; w]) of a twist (linear part first, as Pinocchio).
 
-    return pin.exp6(pin.Motion(np.asarray(xi, dtype=float))).homogeneous
+    Pinocchio's ``exp6`` of the (6,) vector (the same pose, bit for bit, as of a
+    ``pin.Motion`` of it, without building one), at every tick of the free camera.
+    """
+    return _exp6(np.asarray(xi, dtype=float)).homogeneous
+
+
+def _exp6(xi: np.ndarray) -> Any:
+    """``pinocchio.exp6``: imported at the first call, then bound in place of this function.
+
+    Imported here, not with the module, so that importing results (and viz) does not load Pinocchio.
+    """
+    global _exp6
+    import pinocchio as pin
+
+    _exp6 = pin.exp6
+    return pin.exp6(xi)

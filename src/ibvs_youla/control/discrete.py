@@ -78,6 +78,22 @@ def _product(M: np.ndarray, z: np.ndarray, z_next: np.ndarray, y: np.ndarray) ->
         y[j] = z_next[rows - 1, j]
 
 
+# (system, dt, method, prewarp) -> the discrete (A, B, C, D) of DiscreteFilter.from_tf: a run builds its
+# filters from the same few transfer functions, and python-control's conversion to state space costs
+# ~0.5 ms each (~2 ms of a paper controller's set-up); the matrices are the same floats either way
+_DISCRETIZED: dict[tuple[Any, ...], tuple[np.ndarray, ...]] = {}
+_DISCRETIZED_MAX = 256
+
+
+def _system_key(sys: Any) -> tuple[Any, ...]:
+    """What ``control.ss(sys)`` depends on: a SISO transfer function's coefficients, or (A, B, C, D)."""
+    if isinstance(sys, ct.TransferFunction):
+        parts = (sys.num[0][0], sys.den[0][0])
+    else:
+        parts = (sys.A, sys.B, sys.C, sys.D)
+    return (type(sys).__name__, *((np.shape(p), np.asarray(p, dtype=float).tobytes()) for p in parts))
+
+
 class DiscreteFilter:
     """x[k+1] = A x[k] + B u[k], y[k] = C x[k] + D u[k], channel by channel.
 
@@ -148,16 +164,27 @@ class DiscreteFilter:
             raise InvalidParameterError("sys", sys, "a SISO control.TransferFunction or StateSpace")
         if sys.isdtime(strict=True):
             raise InvalidParameterError("sys", sys, "a continuous-time system (dt = 0)")
-        ss = ct.ss(sys)
+        w = None  # the prewarp frequency, used (and checked) with Tustin only
         if method == "tustin" and prewarp_frequency is not None:
-            # Prewarped bilinear: s = (w / tan(w dt / 2)) (z - 1)/(z + 1), i.e. Tustin at a
-            # scaled sampling period; cont2discrete's gbt has no prewarp option.
             w = positive(prewarp_frequency, "prewarp_frequency", unit="rad/s")
-            dt_eff = 2.0 * np.tan(w * dt / 2.0) / w
-            Ad, Bd, Cd, Dd, _ = cont2discrete((ss.A, ss.B, ss.C, ss.D), dt_eff, method="bilinear")
-        else:
-            Ad, Bd, Cd, Dd, _ = cont2discrete((ss.A, ss.B, ss.C, ss.D), dt, method=_SCIPY_METHOD[method])
-        return cls(Ad, Bd, Cd, Dd, dt, n_channels)
+        key = (_system_key(sys), dt, method, w)
+        matrices = _DISCRETIZED.get(key)
+        if matrices is None:
+            ss = ct.ss(sys)
+            if w is not None:
+                # Prewarped bilinear: s = (w / tan(w dt / 2)) (z - 1)/(z + 1), i.e. Tustin at a
+                # scaled sampling period; cont2discrete's gbt has no prewarp option.
+                dt_eff = 2.0 * np.tan(w * dt / 2.0) / w
+                Ad, Bd, Cd, Dd, _ = cont2discrete((ss.A, ss.B, ss.C, ss.D), dt_eff, method="bilinear")
+            else:
+                Ad, Bd, Cd, Dd, _ = cont2discrete((ss.A, ss.B, ss.C, ss.D), dt, method=_SCIPY_METHOD[method])
+            matrices = (Ad, Bd, Cd, Dd)
+            for M in matrices:
+                M.setflags(write=False)  # shared by the filters made from the cache (each copies them)
+            if len(_DISCRETIZED) >= _DISCRETIZED_MAX:
+                _DISCRETIZED.clear()
+            _DISCRETIZED[key] = matrices
+        return cls(*matrices, dt, n_channels)
 
     # ------------------------------------------------------------------ properties
     @property

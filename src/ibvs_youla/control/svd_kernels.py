@@ -11,7 +11,10 @@ the bounded inverse gains g(sigma_i) of ERRATA 7 (``SingularValuePolicy._gains``
   (Eq. (57)-(61), ``OuterLoopController.advance``), at every frame of the paper's controller;
 * :func:`pseudo_inverse_apply`: (V diag(g) U^T) x, the pseudo-inverse formed then applied
   (``policy.pseudo_inverse(J_C) @ twist``), at every joint tick of a twist controller on an arm
-  (``TwistToJointVelocity``).
+  (``TwistToJointVelocity``);
+* :func:`pseudo_inverse_integrate`: the same, and the joint reference it integrates to,
+  q_next = q_prev + dt y (numpy's floats of ``q_prev + dt * y``), in the same call
+  (``TwistToJointVelocity`` followed by ``VelocityToPosition``).
 
 The gains are those of ``SingularValuePolicy`` with ``damped`` True (damped least squares,
 lambda = threshold sigma_max) or False (truncation below threshold sigma_max); singular values
@@ -30,7 +33,7 @@ import numpy as np
 from .._jit import jit
 from .._linalg import gesdd
 
-__all__ = ["pseudo_inverse_apply", "svd_gains", "svd_gains_apply"]
+__all__ = ["pseudo_inverse_apply", "pseudo_inverse_integrate", "svd_gains", "svd_gains_apply"]
 
 _EPS = float(np.finfo(float).eps)
 
@@ -102,4 +105,26 @@ def pseudo_inverse_apply(J: np.ndarray, x: np.ndarray, damped: bool, threshold: 
                 p += Vt[i, j] * g[i] * U[r, i]
             acc += p * x[r]
         y[j] = acc
+    return ok
+
+
+@jit
+def pseudo_inverse_integrate(
+    J: np.ndarray,
+    x: np.ndarray,
+    damped: bool,
+    threshold: float,
+    q_prev: np.ndarray,
+    dt: float,
+    y: np.ndarray,
+    q_next: np.ndarray,
+) -> bool:
+    """:func:`pseudo_inverse_apply` into ``y`` (n,), then q_next = q_prev + dt y (n,); returns ok.
+
+    When not ok, ``q_next`` is not written (the caller runs the reference).
+    """
+    ok = pseudo_inverse_apply(J, x, damped, threshold, y)
+    if ok:
+        for j in range(y.shape[0]):
+            q_next[j] = q_prev[j] + dt * y[j]
     return ok

@@ -83,6 +83,7 @@ from ..exceptions import InvalidParameterError
 from ..model.camera import StereoCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
 from .image_points import CurrentInteraction, feature_rows
+from .mpc_kernels import qp_blocks
 
 __all__ = ["FALLBACKS", "REGISTRATIONS", "MpcIBVS"]
 
@@ -261,13 +262,28 @@ class MpcIBVS(Controller):
 
         The cost is J / (2 T^2) (module docstring); the speed bounds are separate (``lb``, ``ub``).
         """
-        F, T = self._F, self._T
+        F, T, N = self._F, self._T, self.horizon
         L = self.interaction_matrix(features) / F  # on normalized features
         e0 = (features - self._target) / F
-        P = self.q_weight * np.kron(self._W, L.T.dot(L)) + self._R_diag
-        q = (self.q_weight / T) * np.kron(self._w, L.T.dot(e0))
-        G = np.kron(self._lower, self._A_img.dot(L))  # image rows of s_j, j = 1..N
-        h = np.tile((self._b_img - self._A_img.dot(features / F)) / T, self.horizon)
+        AL = self._A_img.dot(L)
+        P, q, G = np.empty((6 * N, 6 * N)), np.empty(6 * N), np.empty((N * AL.shape[0], 6 * N))
+        # P = q_weight kron(W, L^T L) + R, q = (q_weight / T) kron(w, L^T e0), G = kron(lower, A L):
+        # the image rows of s_j, j = 1..N; in one compiled call, the same floats
+        qp_blocks(
+            self._W,
+            self._w,
+            self._lower,
+            L.T.dot(L),
+            L.T.dot(e0),
+            AL,
+            self.q_weight,
+            self.q_weight / T,
+            self._R_diag,
+            P,
+            q,
+            G,
+        )
+        h = np.tile((self._b_img - self._A_img.dot(features / F)) / T, N)
         return P, q, G, h
 
     def _solve(self, P: np.ndarray, q: np.ndarray, G: np.ndarray, h: np.ndarray) -> np.ndarray | None:

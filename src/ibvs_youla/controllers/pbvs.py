@@ -53,6 +53,7 @@ from .._validation import positive
 from ..estimation.monocular_pose import CameraPoseEstimator
 from ..exceptions import InvalidParameterError
 from ..model.camera import PinholeCamera, StereoCamera
+from ..model.rotation_kernels import theta_u_compiled
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
 
 __all__ = ["PBVS", "REGISTRATIONS", "check_pose_task", "check_sampled_gain", "pose_options", "theta_u"]
@@ -66,7 +67,15 @@ def theta_u(R: np.ndarray) -> np.ndarray:
     at every angle, near 0 and near pi included, where the trace formula acos((tr R - 1) / 2) and
     the skew part (R - R^T) / 2 lose half the digits. At theta = pi, u and -u are the same rotation;
     either may be returned.
+
+    The same floats in one compiled call
+    (:func:`~ibvs_youla.model.rotation_kernels.theta_u_compiled`) for a float64 (3, 3) rotation,
+    scipy itself for anything else (a matrix that scipy would orthogonalize, or refuse).
     """
+    if isinstance(R, np.ndarray) and R.dtype == np.float64 and R.shape == (3, 3):
+        out = np.empty(3)
+        if theta_u_compiled(R, out):
+            return out
     return Rotation.from_matrix(R).as_rotvec()
 
 

@@ -18,6 +18,7 @@ frame with the sensor's features (it checks only their shape), and get the same 
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -90,7 +91,8 @@ def _solve_pnp(
         ok, rvec, tvec = cv2.solvePnP(P_ref, normalized, K, None, flags=flag)
     except cv2.error as exc:
         raise PoseEstimationError(method, f"OpenCV solvePnP ({method}) failed: {exc}") from None
-    if not ok or not (np.all(np.isfinite(rvec)) and np.all(np.isfinite(tvec))):
+    finite = math.isfinite(rvec.sum() + tvec.sum()) or (np.isfinite(rvec).all() and np.isfinite(tvec).all())
+    if not ok or not finite:
         raise PoseEstimationError(method, f"OpenCV solvePnP ({method}) found no pose for {len(P_ref)} points")
     R_C_ref = cv2.Rodrigues(rvec)[0]
     T = np.eye(4)

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..control.inner import InnerLoopDesign
 from ..control.singular_values import SingularValuePolicy
-from ..control.svd_kernels import pseudo_inverse_apply
+from ..control.svd_kernels import pseudo_inverse_apply, pseudo_inverse_integrate
 from ..controllers.base import CommandType, JointReading
 from ..exceptions import IncompatibleCommandError
 
@@ -61,20 +61,37 @@ class TwistToJointVelocity:
         self._arm = arm
         self._policy = SingularValuePolicy() if policy is None else policy
         self._damped, self._threshold = self._policy.kind == "damped", self._policy.threshold
+        self._integrator: VelocityToPosition | None = None
+
+    def integrate_into(self, integrator: VelocityToPosition) -> None:
+        """Integrate each dq_ref for ``integrator`` (the next link) in the same compiled call.
+
+        ``integrator(dq_ref, reading)`` then returns the reference it would compute, computed
+        already (:func:`~ibvs_youla.control.svd_kernels.pseudo_inverse_integrate`, the same
+        floats): one compiled call per joint tick instead of a compiled call and two numpy ones.
+        """
+        self._integrator = integrator
 
     def __call__(self, twist: np.ndarray, reading: JointReading) -> np.ndarray:
         """dq_ref (n,) [rad/s] for the twist [v; w] (6,) in the camera frame at the encoder reading.
 
         The encoders are the plant's (finite): J_C comes from the arm's kernel, and J_C^+ [v; w]
-        from one compiled call (:func:`~ibvs_youla.control.svd_kernels.pseudo_inverse_apply`) when
-        the twist is a float (6,) array, else (or when the SVD fails) from the reference
-        ``policy.pseudo_inverse(J_C) @ twist``.
+        from one compiled call (:func:`~ibvs_youla.control.svd_kernels.pseudo_inverse_apply`,
+        with the integration of :meth:`integrate_into`) when the twist is a float (6,) array,
+        else (or when the SVD fails) from the reference ``policy.pseudo_inverse(J_C) @ twist``.
         """
         J_C = self._arm.camera_jacobian_at(reading.q)
         if getattr(twist, "shape", None) == (6,) and twist.dtype == np.float64:
-            dq_ref = np.empty(J_C.shape[1])
-            if pseudo_inverse_apply(J_C, twist, self._damped, self._threshold, dq_ref):
-                return dq_ref
+            n, integrator = J_C.shape[1], self._integrator
+            dq_ref = np.empty(n)
+            if integrator is None:
+                if pseudo_inverse_apply(J_C, twist, self._damped, self._threshold, dq_ref):
+                    return dq_ref
+            else:
+                q_next, q_ref, dt, damped = np.empty(n), integrator._q_ref, integrator._dt, self._damped
+                if pseudo_inverse_integrate(J_C, twist, damped, self._threshold, q_ref, dt, dq_ref, q_next):
+                    integrator._held = (dq_ref, q_next)  # for integrator(dq_ref, reading)
+                    return dq_ref
         return self._policy.pseudo_inverse(J_C) @ twist
 
 
@@ -91,9 +108,17 @@ class VelocityToPosition:
     def __init__(self, q_start: np.ndarray, dt: float) -> None:
         self._q_ref = np.array(q_start, dtype=float)
         self._dt = float(dt)
+        # (dq_ref, q_ref + dt dq_ref) computed by TwistToJointVelocity (integrate_into) for the next call
+        self._held: tuple[np.ndarray, np.ndarray] | None = None
 
     def __call__(self, dq_ref: np.ndarray, reading: JointReading) -> np.ndarray:
         """The integrated reference (n,) [rad]."""
+        held = self._held
+        if held is not None:
+            self._held = None
+            if held[0] is dq_ref:  # integrated already, this very array
+                self._q_ref = held[1]
+                return held[1]
         self._q_ref = self._q_ref + self._dt * dq_ref
         return self._q_ref
 
@@ -160,6 +185,8 @@ def actuation_chain(
         else:
             chain.append(InnerLoopActuator(arm, tau_in, dt))
         current = nxt
+    if len(chain) > 1 and isinstance(chain[0], TwistToJointVelocity):
+        chain[0].integrate_into(chain[1])  # the next link is VelocityToPosition (see _CHAIN)
     if current not in accepted:
         why = "the controller has no arm model to convert it" if arm is None else "no adapter converts it"
         raise IncompatibleCommandError(

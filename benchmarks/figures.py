@@ -224,26 +224,38 @@ def _minutes(date: str | None) -> float | None:
 
 
 def history(reports: dict[str, Report | None]) -> str:
-    """The last runs' headline figures: each outer-loop run with the simulation run nearest in time."""
+    """The last runs' headline figures, a row per run: an outer-loop run with the simulation run
+    taken within 10 minutes of it (the nearest not yet paired), and a simulation run taken alone
+    (``run_all.py --only simulation``) on its own row."""
     rows = [
         "| date (UTC) | load 1 min | calibration [ms] | update / floor | paper-1 1 kHz/1 kHz "
         "| paper-1 1 kHz/100 Hz | kinematic IBVS | free-camera IBVS (stereo) |",
         "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
-    outer = (reports.get("outer_loop") or {}).get("history", [])
+    outer = [(h, _minutes(h.get("date"))) for h in (reports.get("outer_loop") or {}).get("history", [])]
     sims = [(h, _minutes(h.get("date"))) for h in (reports.get("simulation") or {}).get("history", [])]
-    for h in outer[-12:]:
-        when = _minutes(h.get("date"))
+    runs: list[tuple[float, dict, dict]] = []  # (minutes, outer-loop entry, simulation entry)
+    paired: set[int] = set()
+    for h, when in outer:
         near = [
-            (abs(m - when), s) for s, m in sims if m is not None and when is not None and abs(m - when) < 60
+            (abs(m - when), i)
+            for i, (_, m) in enumerate(sims)
+            if i not in paired and m is not None and when is not None and abs(m - when) < 10
         ]
-        s = min(near, key=lambda x: x[0])[1] if near else {}
+        i = min(near)[1] if near else None
+        if i is not None:
+            paired.add(i)
+        runs.append((when if when is not None else -1.0, h, sims[i][0] if i is not None else {}))
+    runs += [(m if m is not None else -1.0, {}, h) for i, (h, m) in enumerate(sims) if i not in paired]
+    runs.sort(key=lambda run: run[0])
+    for _, h, s in runs[-12:]:
+        first = h or s
         factors = s.get("realtime_factor", {}).get("paper-1", {})
         classical = s.get("classical") or {}
-        load = (h.get("load_average") or [None])[0]
+        load = (first.get("load_average") or [None])[0]
         rows.append(
-            f"| {(h.get('date') or '?')[:16].replace('T', ' ')} | {_num(load, 2)} "
-            f"| {_num(h.get('calibration_ms'))} "
+            f"| {(first.get('date') or '?')[:16].replace('T', ' ')} | {_num(load, 2)} "
+            f"| {_num(first.get('calibration_ms'))} "
             f"| {_num(h.get('ratio_to_floor'), 2)} | {_num(factors.get('paper'))} "
             f"| {_num(factors.get('two-rate'))} "
             f"| {_num(classical.get('kinematic/physical-2'), 0)} "

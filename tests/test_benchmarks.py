@@ -256,3 +256,24 @@ def test_run_all_regenerates_the_readme_blocks_from_the_reports(tmp_path):
     assert "old figures" not in text and "Prose between." in text and text.endswith("Prose after.\n")
     assert f"**{saved['ratio_to_floor']:,.2f}**" in text  # the ratio of the latest report
     assert text.count("| 20") >= 2  # two rows of history, one per run (dates of this century)
+
+
+def test_the_history_pairs_runs_taken_together_and_keeps_a_simulation_run_taken_alone():
+    """An outer-loop run and the simulation run of the same run_all.py call share a row; a
+    simulation run taken again later (``--only simulation``) gets a row of its own."""
+    figures = load("figures")
+
+    def sim(date, paper):
+        return {"date": date, "realtime_factor": {"paper-1": {"paper": paper, "two-rate": 2 * paper}}}
+
+    reports = {
+        "outer_loop": {"history": [{"date": "2026-12-02T00:43:29+00:00", "ratio_to_floor": 2.06}]},
+        "simulation": {
+            "history": [sim("2026-12-02T00:43:32+00:00", 16.0), sim("2026-12-02T00:49:36+00:00", 21.8)]
+        },
+    }
+    rows = figures.history(reports).splitlines()[2:]
+    assert rows == [
+        "| 2026-12-02 00:43 | n/a | n/a | 2.06 | 16.0 | 32.0 | n/a | n/a |",
+        "| 2026-12-02 00:49 | n/a | n/a | n/a | 21.8 | 43.6 | n/a | n/a |",
+    ]

@@ -16,6 +16,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -362,7 +363,7 @@ def test_runs_blamed_for_a_dead_worker_run_again_alone_and_only_the_killer_is_an
     summary = runner.CampaignSummary(tmp_path, 3, 0)
     client = _ClusterWithAKiller()
     bar = runner._progress_bar(3, 0, False)
-    runner._collect(client, definition.specs(), writer, summary, bar, tmp_path, False)
+    runner._collect(client, definition.specs(), writer, summary, bar, tmp_path, False, threading.Event())
     writer.flush()
     assert client.submissions[0] == [0, 1, 2]  # together; then each blamed run alone, after the others
     assert sorted(client.submissions[1:]) == [[1], [2]]
@@ -427,12 +428,26 @@ def test_a_sigterm_that_a_run_swallows_still_stops_the_campaign(tmp_path, monkey
 
     monkeypatch.setattr(run_module, "run_spec_with_result", third_run_swallows_the_signal)
     out = tmp_path / "swallowed"
+    before = signal.getsignal(signal.SIGTERM)
     with pytest.raises(KeyboardInterrupt):
         run_campaign(CampaignDefinition(**DEFINITION), out, workers=0, progress=False)
     rows = read_rows(out)
     assert len(calls) == 3 and sorted(rows["key"]) == sorted(calls[:2])
     assert rows["outcome"].ne("error").all()
-    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # the handler is gone again
+    assert signal.getsignal(signal.SIGTERM) is before  # the campaign's handler is gone again
+    # nothing of the signal outlives its campaign: the next one, here or in a thread, runs to the end
+    monkeypatch.setattr(run_module, "run_spec_with_result", real)
+    small = {**DEFINITION, "cases": 1}
+    outcome = []
+    thread = threading.Thread(  # off the main thread: no handler of its own, so nothing to reset a flag
+        target=lambda: outcome.append(
+            run_campaign(CampaignDefinition(**small), tmp_path / "thread", workers=0, progress=False).ran
+        )
+    )
+    thread.start()
+    thread.join(timeout=120)
+    assert outcome == [3]
+    assert run_campaign(CampaignDefinition(**small), tmp_path / "next", workers=0, progress=False).ran == 3
 
 
 def _temporaries(folder: Path) -> list[Path]:

@@ -100,6 +100,12 @@ def test_all_off_is_an_empty_dict_and_round_trips():
         ("hand_eye_rotation_deg", (180.0, 0.0, 0.0)),
         ("seed", -3),
         ("quantize", "yes"),
+        # ragged vectors (a TOML array may mix numbers and arrays): the field's error, not numpy's
+        ("principal_point_offset_px", (1.0, [2.0])),
+        ("marker_offset_m", (0.0, [1.0], 2.0)),
+        ("viscous_friction", (0.5, [1.0], 0.5, 0.5, 0.5, 0.5)),
+        ("rendered_images", 1),
+        ("image_blur_px", -1.0),
     ],
 )
 def test_bad_values_name_what_was_received(field, value):

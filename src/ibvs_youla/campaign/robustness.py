@@ -160,7 +160,8 @@ def check_study_folder(folder: str | os.PathLike[str], study: RobustnessStudy) -
 
     Also checks every value's campaign folder that exists (:func:`~.storage.check_folder`): a
     folder may hold value folders before its ``study.json`` when they hold this study's campaigns
-    (e.g. the undisturbed campaign, the same in every study of a family, copied from another).
+    (e.g. the undisturbed campaign, the same in every study of a family but an ``images`` one, copied
+    from another).
 
     Raises:
         StudyStorageError, CampaignStorageError: as above.

@@ -13,8 +13,8 @@ to the plant and camera). The levels of each axis (value 0 is undisturbed, excep
   170], the markers detected in them (:class:`~ibvs_youla.simulation.image_sensor.ImageSensor`);
   a frame in which a marker is not found is withheld from the controller. Every value renders
   (value 0 is noise-free images, not the ideal sensor: compare with the ``noise`` axis's 0). A
-  camera with pixels only (not the free families' normalized camera); a frame costs about 8 ms,
-  2,000 of them per 20 s arm run;
+  camera with pixels only (not the free families' normalized camera); a frame costs 7-8 ms at VGA,
+  2,000 of them per 20 s arm run (14-16 s);
 * ``calibration``: a level c >= 0 scaling one set of errors of the controller's beliefs:
   focal length and baseline +c %, principal point (+2c, -2c) px, hand-eye transform
   c (1, -1, 1) mm and c (0.1, 0.1, -0.1) deg (rotation vector; arm plants only), markers

@@ -59,7 +59,6 @@ __all__ = [
 ]
 
 _LOG = logging.getLogger(__name__)
-_TERMINATED = threading.Event()  # SIGTERM came during this campaign (_sigterm_interrupts)
 CONNECT_TIMEOUT_S = 10.0  # to reach an existing scheduler [s]
 TASKS_PER_THREAD = 4  # tasks in flight per worker thread (at least MIN_WINDOW in all)
 MIN_WINDOW = 32
@@ -176,7 +175,7 @@ def run_campaign(
             summary.other_rows = len(storage.stored_keys(path) - {s.key for s in specs})
         summary.wall_s = time.perf_counter() - t_start
         return summary
-    with _sigterm_interrupts():  # SIGTERM flushes the returned rows, as Ctrl-C does
+    with _sigterm_interrupts() as terminated:  # SIGTERM flushes the returned rows, as Ctrl-C does
         client, cluster = (None, None) if workers == 0 else _connect(scheduler, workers)
         summary.workers = 0 if client is None else sum(_nthreads(client).values())
         try:
@@ -193,9 +192,9 @@ def run_campaign(
                 t_run = time.perf_counter()
                 try:
                     if client is None:
-                        _run_here(pending, writer, summary, bar, path, series)
+                        _run_here(pending, writer, summary, bar, path, series, terminated)
                     else:
-                        _run_dask(client, pending, writer, summary, bar, path, series)
+                        _run_dask(client, pending, writer, summary, bar, path, series, terminated)
                 finally:
                     writer.flush()
                     summary.ran = writer.written
@@ -253,37 +252,38 @@ def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any]:
 
 
 @contextlib.contextmanager
-def _sigterm_interrupts() -> Iterator[None]:
+def _sigterm_interrupts() -> Iterator[threading.Event]:
     """Turn SIGTERM into ``KeyboardInterrupt`` (as Ctrl-C) while a campaign runs in the main thread.
 
     A batch system or ``kill`` stops a job with SIGTERM, whose default action ends the process
-    without running ``finally``: the rows returned but not yet written would be lost.
+    without running ``finally``: the rows returned but not yet written would be lost. Yields this
+    campaign's own event, set when the signal came (never, off the main thread: no handler).
     """
+    terminated = threading.Event()
     if threading.current_thread() is not threading.main_thread():
-        yield
+        yield terminated
         return
 
     def interrupt(signum: int, frame: Any) -> None:
-        _TERMINATED.set()
+        terminated.set()
         raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
 
-    _TERMINATED.clear()
     previous = signal.signal(signal.SIGTERM, interrupt)
     try:
-        yield
+        yield terminated
     finally:
         signal.signal(signal.SIGTERM, previous)
 
 
-def _stop_if_terminated() -> None:
+def _stop_if(terminated: threading.Event) -> None:
     """Raise ``KeyboardInterrupt`` if SIGTERM came, even when its exception never reached the client.
 
     The handler raises wherever the main thread is: inside a run, an exception raised in a
     finalizer is printed and dropped by Python, and a library may turn it into an error of its
-    own, which the run stores as an ``error`` row. Checked after every run, before its row is
-    stored: the run the signal landed in is not stored (it runs again on resume).
+    own, which the run stores as an ``error`` row. Checked before and after every run, before its
+    row is stored: the run the signal landed in is not stored (it runs again on resume).
     """
-    if _TERMINATED.is_set():
+    if terminated.is_set():
         raise KeyboardInterrupt("signal SIGTERM")
 
 
@@ -350,12 +350,14 @@ def _run_here(
     bar: Any,
     path: Path,
     series: bool,
+    terminated: threading.Event,
 ) -> None:
     from .run import run_spec_with_result
 
     for spec in pending:
+        _stop_if(terminated)
         row, result = run_spec_with_result(spec)
-        _stop_if_terminated()
+        _stop_if(terminated)
         _store(row, result if series else None, writer, summary, bar, path)
 
 
@@ -367,13 +369,14 @@ def _run_dask(
     bar: Any,
     path: Path,
     series: bool,
+    terminated: threading.Event,
 ) -> None:
     from concurrent.futures import CancelledError
 
     from distributed.comm import CommClosedError
 
     try:
-        _collect(client, pending, writer, summary, bar, path, series)
+        _collect(client, pending, writer, summary, bar, path, series, terminated)
     except (CancelledError, CommClosedError):  # the scheduler, or the connection to it, is gone
         raise SchedulerError(
             str(client.scheduler.address),
@@ -390,6 +393,7 @@ def _collect(
     bar: Any,
     path: Path,
     series: bool,
+    terminated: threading.Event,
 ) -> None:
     from concurrent.futures import CancelledError
 
@@ -406,7 +410,7 @@ def _collect(
     in_flight: dict[Any, ExperimentSpec] = {}
     window = _window(client)
     while queue or in_flight or suspects:
-        _stop_if_terminated()
+        _stop_if(terminated)
         if queue and len(in_flight) < window:
             chunk = [queue.pop() for _ in range(min(window - len(in_flight), len(queue)))]
             futures = client.map(function, [s.to_json() for s in chunk], pure=False, retries=2)

@@ -12,9 +12,9 @@ Argument errors (an unknown axis, no values, a negative noise, latency or scale,
 latency, an axis that does not apply to the plant, such as ``mismatch`` off the dynamic arm,
 ``--feedforward smooth`` without ``ff+fb``, an unknown controller) exit with 2 and write
 nothing; a folder holding another study or campaign, an unreachable scheduler exit with 1.
-``--axis images`` renders every frame and detects the markers (about 8 ms a frame: a 20 s arm
-run at 100 Hz takes some 16 s); it needs a camera with pixels (not the free families' normalized
-camera).
+``--axis images`` renders every frame and detects the markers (7-8 ms a frame at VGA: a 20 s arm
+run at 100 Hz takes 14-16 s on a quiet core); it needs a camera with pixels (not the free
+families' normalized camera).
 """
 
 from __future__ import annotations

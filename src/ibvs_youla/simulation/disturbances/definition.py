@@ -61,8 +61,18 @@ _PARAMETERS = {  # a parameter of other disturbances -> those disturbances
 }
 
 
+def _floats(value: Any) -> np.ndarray:
+    """``value`` as a float array; NaN for a string or what numpy cannot make one array of (ragged)."""
+    if isinstance(value, str):
+        return np.array([np.nan])
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return np.array([np.nan])
+
+
 def _vector(value: Any, name: str, n: int) -> tuple[float, ...]:
-    arr = np.asarray(value, dtype=float) if not isinstance(value, str) else np.array([np.nan])
+    arr = _floats(value)
     if arr.shape != (n,) or not np.all(np.isfinite(arr)):
         raise InvalidParameterError(name, value, f"{n} finite numbers")
     return tuple(float(v) for v in arr)
@@ -70,9 +80,9 @@ def _vector(value: Any, name: str, n: int) -> tuple[float, ...]:
 
 def _friction(value: Any, name: str, unit: str) -> float | tuple[float, ...]:
     """A friction coefficient: one number >= 0 for every joint, or one per joint (equal ones: one)."""
-    if np.ndim(value) == 0:
+    arr = _floats(value)
+    if arr.ndim == 0 or isinstance(value, str):  # one number (a string: its error names the field)
         return non_negative(value, name, unit=unit)
-    arr = np.asarray(value, dtype=float)
     if arr.shape != (_N_JOINTS,) or not np.all(np.isfinite(arr)) or np.any(arr < 0.0):
         raise InvalidParameterError(name, value, f"a number >= 0 or {_N_JOINTS} numbers >= 0 [{unit}]")
     if np.all(arr == arr[0]):  # one value for every joint, written once: six zeros are "off"

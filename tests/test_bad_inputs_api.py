@@ -1,9 +1,10 @@
 """Bad arguments for the public functions and objects: a typed error that names the argument.
 
-Issue 13, classes 3, 4 and 6, across the API: ``simulate`` and its options, the arm, the cameras,
-the eye-in-hand model and pose estimation, scenarios, the controller registry, comparisons,
-the Section 7 reproduction, the suite and campaigns. Each row asserts the exception type and
-that the message names the argument as the user wrote it (``"beliefs.arm"``, ``"gain"``, ...).
+Wrong types, non-finite and out-of-range values, and wrong shapes, across the API: ``simulate``
+and its options, the arm, the cameras, the eye-in-hand model and pose estimation, scenarios, the
+controller registry, comparisons, the Section 7 reproduction, the suite and campaigns. Each row
+asserts the exception type and that the message names the argument as the user wrote it
+(``"beliefs.arm"``, ``"gain"``, ...).
 """
 
 from __future__ import annotations

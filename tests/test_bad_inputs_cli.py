@@ -1,6 +1,6 @@
 """Bad command lines and bad TOML files: one line on stderr, exit 2 or 1, never a traceback.
 
-Issue 13, class 7. Each CLI row runs ``main(argv)`` in this process and asserts the exit code
+Each CLI row runs ``main(argv)`` in this process and asserts the exit code
 (2 for a bad argument, 1 for everything else), that stderr holds exactly one line
 ``ibvs-youla: error: ...`` that names the flag (or key, or file), and no ``Traceback``. The TOML
 rows load a file with ``load_config`` and assert a ``ConfigError`` naming the dotted key. The

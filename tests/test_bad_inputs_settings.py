@@ -1,6 +1,6 @@
 """Bad values for every settings and design dataclass: a typed error that names the argument.
 
-Each row of the tables is one hostile but realistic input (issue 13, classes 3 and 6): a number
+Each row of the tables is one hostile but realistic input: a number
 given as a string, a bool or a complex number, None, NaN or an infinity, a value out of range,
 an extreme value that would overflow the design's arithmetic. The test asserts the exception
 type and that its message names the argument as the user wrote it. The property tests at the

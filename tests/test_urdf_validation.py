@@ -1,4 +1,4 @@
-"""Damaged URDFs and models are refused: a ModelLoadError naming the file, link or joint (issue 13, class 5).
+"""Damaged URDFs and models are refused: a ModelLoadError naming the file, link or joint.
 
 Each URDF case edits one value of the shipped IRB 4600 URDF in ``tmp_path``; each model case
 edits a Pinocchio model of it (what ``Arm(model)`` receives). The valid file must load and give

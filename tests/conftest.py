@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+
 import pytest
 from hypothesis import settings
 
@@ -25,3 +27,17 @@ def arm():
 def camera():
     """The paper's ZED 2 preset: 86.09 x 55.35 deg, 0.5-25 m (a test file may override it)."""
     return StereoCamera.zed2()
+
+
+@pytest.fixture
+def processes():
+    """Subprocesses started by a test; every one still alive is killed (by its id) at teardown.
+
+    ``communicate`` rather than ``wait``: a process whose pipes nobody reads could block on them.
+    """
+    started: list[subprocess.Popen] = []
+    yield started
+    for proc in started:
+        if proc.poll() is None:
+            proc.kill()
+        proc.communicate(timeout=30)

@@ -193,17 +193,6 @@ def _stored(out: Path) -> int:
 
 
 @pytest.fixture
-def processes():
-    """Subprocesses started by a test; every one still alive is killed (by its id) at teardown."""
-    started: list[subprocess.Popen] = []
-    yield started
-    for proc in started:
-        if proc.poll() is None:
-            proc.kill()
-        proc.wait(timeout=30)
-
-
-@pytest.fixture
 def cluster(tmp_path, processes):
     """A scheduler and two one-thread workers, each a `dask` command-line process on 127.0.0.1."""
     dask = str(Path(sys.executable).with_name("dask"))

@@ -39,17 +39,6 @@ def reference(tmp_path_factory):
     return (out / "table.md").read_text(), json.loads((out / "table.json").read_text())
 
 
-@pytest.fixture
-def processes():
-    """Subprocesses started by a test; every one still alive is killed (by its id) at teardown."""
-    started: list[subprocess.Popen] = []
-    yield started
-    for proc in started:
-        if proc.poll() is None:
-            proc.kill()
-        proc.communicate(timeout=30)
-
-
 def _start(processes, out: Path, delay: float | None = None, *extra: str) -> subprocess.Popen:
     env = {k: v for k, v in os.environ.items() if k != WRITE_DELAY_ENV}
     if delay is not None:

@@ -231,19 +231,29 @@ def cluster(tmp_path, processes):
 def test_a_real_cluster_losing_a_worker_stores_every_row_once(tmp_path, reference, cluster, processes):
     address, _, workers = cluster
     out = tmp_path / "distributed"
-    client = subprocess.Popen(
-        [sys.executable, "-c", PYTHON_CLI, *CLI_ARGS, "--out", str(out), "--scheduler", address, "--series"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    processes.append(client)
-    _wait_for(lambda: _stored(out) >= RUNS // 2 or client.poll() is not None, 60, "half the rows")
+    # The observer connects first: the compiled runs take ~50 ms, so the second half of the campaign
+    # can finish in the time a new client needs to connect.
     with Client(address, timeout=10) as observer:  # which worker runs a task now, and its pid
-        busy = [w for w, tasks in observer.processing().items() if tasks]
-        pid = observer.run(os.getpid, workers=busy[:1])[busy[0]] if busy else None
+        pids = observer.run(os.getpid)  # worker address -> pid
+        argv = [*CLI_ARGS, "--out", str(out), "--scheduler", address, "--series"]
+        client = subprocess.Popen(
+            [sys.executable, "-c", PYTHON_CLI, *argv],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        processes.append(client)
+        _wait_for(lambda: _stored(out) >= RUNS // 2 or client.poll() is not None, 60, "half the rows")
+        busy: list[str] = []
+
+        def a_worker_is_busy() -> bool:
+            busy[:] = [w for w, tasks in observer.processing().items() if tasks]
+            return bool(busy) or client.poll() is not None
+
+        _wait_for(a_worker_is_busy, 10, "a worker running a task")
+        assert busy, "the campaign ended before a worker could be killed mid-task"
         stored_at_kill = _stored(out)
-        (victim,) = [w for w in workers if w.pid == pid]
+        (victim,) = [w for w in workers if w.pid == pids[busy[0]]]
         victim.send_signal(signal.SIGKILL)
     stdout, stderr = client.communicate(timeout=120)
     assert client.returncode == 0, stderr

@@ -43,6 +43,7 @@ from ibvs_youla.model.camera_kernels import (
     measure_features,
     triangulate,
 )
+from ibvs_youla.model.dynamics_kernels import ChainDynamics, aba_compiled
 from ibvs_youla.model.ik import nearest_branch
 from ibvs_youla.model.ik_kernels import ik_parameter_array, nearest_branch_compiled
 from ibvs_youla.simulation.integrators import ArmRk4, rk4_arm_step
@@ -267,17 +268,35 @@ def test_filter_step_equals_the_stacked_product():
 
 
 # --------------------------------------------------------------------------- RK4
-def test_arm_rk4_equals_rk4_arm_step_of_the_arm_dynamics(arm):
-    """The compiled stages around Pinocchio's ABA: the packed RK4 of arm.aba to 8 eps of the terms.
+def compiled_arm_aba(arm):
+    """FD(q, dq, tau) of the compiled ABA with the arm's damping, as ``arm.aba`` forms it."""
+    chain = ChainDynamics.from_model(arm.pinocchio_model_data()[0])
+    C, S = chain.chain, chain.scratch()
 
-    The weighted sum x + dt (k1 + 2 k2 + 2 k3 + k4) / 6 is formed in another order than BLAS's,
-    so the bound is 8 eps (|x| + dt (|k1| + 2 |k2| + 2 |k3| + |k4|) / 6), the stage derivatives'
-    magnitudes (1e6 rad/s^2 with the large torques).
+    def fd(q, dq, tau):
+        ddq = np.empty(6)
+        aba_compiled(C, S, np.ascontiguousarray(q), np.ascontiguousarray(dq), tau - arm.damping * dq, ddq)
+        return ddq
+
+    return fd
+
+
+@pytest.mark.parametrize("compiled_aba", [True, False], ids=["one-compiled-call", "pin.aba"])
+def test_arm_rk4_equals_rk4_arm_step_of_the_arm_dynamics(arm, compiled_aba):
+    """The compiled stages around the ABA: the packed RK4 of the same ABA to 8 eps of the terms.
+
+    With ``compiled_aba`` the whole step is one compiled call (rk4_aba_step) and the reference
+    takes the compiled ABA (pinned to Pinocchio's in ``test_dynamics_kernels.py``); without,
+    Pinocchio's ``pin.aba`` is called between the compiled stages and the reference takes
+    ``arm.aba``. The weighted sum x + dt (k1 + 2 k2 + 2 k3 + k4) / 6 is formed in another order
+    than BLAS's, so the bound is 8 eps (|x| + dt (|k1| + 2 |k2| + 2 |k3| + |k4|) / 6), the stage
+    derivatives' magnitudes (1e6 rad/s^2 with the large torques).
     """
     n = 6
     low = np.concatenate([arm.q_min - 1.0, -1e3 * arm.dq_max])
     high = np.concatenate([arm.q_max + 1.0, 1e3 * arm.dq_max])
-    rk4 = ArmRk4(arm, low, high)
+    rk4 = ArmRk4(arm, low, high, compiled_aba=compiled_aba)
+    forward_dynamics = compiled_arm_aba(arm) if compiled_aba else arm.aba
     rng = np.random.default_rng(SEED + 8)
     n_outside = 0
     for i in range(500):
@@ -285,7 +304,7 @@ def test_arm_rk4_equals_rk4_arm_step_of_the_arm_dynamics(arm):
         x = np.concatenate([q, rng.normal(0.0, 1.0, n)])
         tau = rng.normal(0.0, (500.0, 5e6)[i % 2], n)  # the second often leaves the speed bounds
         k = np.empty((4, 2 * n))
-        expected = rk4_arm_step(arm.aba, x, tau, 1e-3, k)
+        expected = rk4_arm_step(forward_dynamics, x, tau, 1e-3, k)
         got, inside = rk4.step(x, tau, 1e-3)
         terms = np.abs(x) + 1e-3 * (np.array([1.0, 2.0, 2.0, 1.0]) / 6.0) @ np.abs(k)
         np.testing.assert_array_less(np.abs(got - expected), 8 * EPS * terms)

@@ -213,6 +213,17 @@ class DiscreteFilter:
         return self._A.copy(), self._B[:, 0].copy(), self._C.copy(), self._D
 
     @property
+    def stacked_matrix(self) -> np.ndarray:
+        """M = [[A, B], [C, D]] (n + 1, n + 1), read-only: the matrix of :func:`filter_step`.
+
+        For a compiled kernel that runs the filter's recursion on its own state (e.g. the inner
+        loop's torque in one call, ``simulation.actuation``): the same matrix, so the same floats.
+        """
+        view = self._M.view()
+        view.setflags(write=False)
+        return view
+
+    @property
     def state(self) -> np.ndarray:
         """Copy of the (n, m) state."""
         return self._x.copy()

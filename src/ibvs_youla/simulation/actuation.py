@@ -13,7 +13,9 @@ reading and the controller's *own* arm model (never the true one):
 * :class:`InnerLoopActuator`: v = G_C(z)[q_ref - q] (Eq. (41)-(46), ERRATA 8; Tustin) and the
   feedback linearization tau = M(q) v + h(q, dq) (Eq. (33)) with the controller's arm model,
   so every controller that commands joints runs through the paper's inner loop on the
-  dynamic arm.
+  dynamic arm. Both in one compiled call per tick (:func:`inner_loop_torque`: the filter's
+  recursion, then the RNEA of :mod:`ibvs_youla.model.dynamics_kernels` on the model's numbers),
+  or, for an arm whose joints that kernel declines, the filter's kernel and Pinocchio's RNEA.
 
 :func:`actuation_chain` walks the chain from the controller's command type to the first
 type the plant accepts, or raises :class:`~ibvs_youla.exceptions.IncompatibleCommandError`
@@ -26,17 +28,21 @@ from typing import Any
 
 import numpy as np
 
+from .._jit import jit, jit_available
+from ..control.discrete import filter_step_difference
 from ..control.inner import InnerLoopDesign
 from ..control.singular_values import SingularValuePolicy
 from ..control.svd_kernels import pseudo_inverse_apply, pseudo_inverse_integrate
 from ..controllers.base import CommandType, JointReading
 from ..exceptions import IncompatibleCommandError
+from ..model.dynamics_kernels import ChainDynamics, rnea_compiled
 
 __all__ = [
     "InnerLoopActuator",
     "TwistToJointVelocity",
     "VelocityToPosition",
     "actuation_chain",
+    "inner_loop_torque",
 ]
 
 _CHAIN = (
@@ -123,6 +129,34 @@ class VelocityToPosition:
         return self._q_ref
 
 
+@jit
+def inner_loop_torque(
+    M: np.ndarray,
+    z: np.ndarray,
+    z_next: np.ndarray,
+    q_ref: np.ndarray,
+    q: np.ndarray,
+    dq: np.ndarray,
+    C: np.ndarray,
+    S: np.ndarray,
+    damping: np.ndarray,
+    v: np.ndarray,
+    tau: np.ndarray,
+) -> None:
+    """One tick of the inner loop: v = G_C(z)[q_ref - q] (Eq. (41)), tau = M(q) v + h(q, dq) (Eq. (33)).
+
+    The filter's recursion (``filter_step_difference`` on its stacked matrix M, state z (n +
+    1, m) advanced in place through z_next), then the RNEA of the chain ``C`` (scratch ``S``)
+    and the damping torque ``damping * dq``: ``arm.rnea(q, dq, v)`` to rounding. Unvalidated
+    float64 arrays; v (m,) and tau (m,) are written.
+    """
+    filter_step_difference(M, z, z_next, q_ref, q, v)
+    z[:, :] = z_next
+    rnea_compiled(C, S, q, dq, v, tau)
+    for j in range(tau.shape[0]):
+        tau[j] += damping[j] * dq[j]
+
+
 class InnerLoopActuator:
     """Joint position reference -> joint torque: the paper's inner loop (Eq. (33)-(46)).
 
@@ -135,13 +169,29 @@ class InnerLoopActuator:
     output_type = CommandType.JOINT_TORQUE
 
     def __init__(self, arm: Any, tau_in: float, dt: float) -> None:
-        self._inner = InnerLoopDesign(tau_in).discrete_controller(dt, arm.nq)
-        self._step, self._rnea = self._inner.step_difference, arm.rnea  # bound once: called at every tick
+        inner = InnerLoopDesign(tau_in).discrete_controller(dt, arm.nq)
+        self._n, self._rnea = arm.nq, arm.rnea
+        # G_C's recursion on the actuator's own state (the filter's matrix, so its floats)
+        self._M = inner.stacked_matrix
+        self._z, self._z_next = np.zeros((inner.n_states + 1, arm.nq)), np.zeros((inner.n_states + 1, arm.nq))
+        self._v = np.empty(arm.nq)
+        chain = ChainDynamics.from_model(arm.pinocchio_model_data()[0]) if jit_available() else None
+        damping = np.array(arm.damping, dtype=float)
+        self._chain = None if chain is None else (chain.chain, chain.scratch(), damping)
 
     def __call__(self, q_ref: np.ndarray, reading: JointReading) -> np.ndarray:
         """Tau = M(q) G_C(z)[q_ref - q] + h(q, dq) (n,) [N m], from one RNEA pass."""
         q, dq = reading.q, reading.dq
-        return self._rnea(q, dq, self._step(q_ref, q))
+        if getattr(q_ref, "shape", None) != (self._n,) or q_ref.dtype != np.float64:
+            q_ref = np.asarray(q_ref, dtype=float).reshape(self._n)
+        tau = np.empty(self._n)
+        if self._chain is not None:
+            C, S, damping = self._chain
+            inner_loop_torque(self._M, self._z, self._z_next, q_ref, q, dq, C, S, damping, self._v, tau)
+            return tau
+        filter_step_difference(self._M, self._z, self._z_next, q_ref, q, self._v)
+        self._z[:, :] = self._z_next
+        return self._rnea(q, dq, self._v)  # type: ignore[no-any-return]
 
 
 def actuation_chain(

@@ -21,10 +21,13 @@ Three entry points:
   space R^n), the case of the IRB 4600. It does not validate its arguments.
 * :class:`ArmRk4` — :func:`rk4_arm_step` of an :class:`~ibvs_youla.model.arm.Arm`'s
   ``forward_dynamics``, the plant's integrator (:class:`~ibvs_youla.simulation.plant.ArmPlant`):
-  Pinocchio's ABA four times, and between the calls one compiled kernel
-  (:func:`ibvs_youla._jit.jit`) that stores the stage derivative and forms the next stage's
-  state and torque ``tau - damping * dq``; the last one also forms x + dt (k1 + 2 k2 + 2 k3 +
-  k4) / 6 and tests it against the plant's divergence bounds. The same stages, none skipped.
+  the ABA four times, and between the calls one compiled kernel (:func:`ibvs_youla._jit.jit`)
+  that stores the stage derivative and forms the next stage's state and torque ``tau - damping
+  * dq``; the last one also forms x + dt (k1 + 2 k2 + 2 k3 + k4) / 6 and tests it against the
+  plant's divergence bounds. The same stages, none skipped. For an arm of single-axis revolute
+  joints (the IRB 4600) the whole step is one compiled call, :func:`rk4_aba_step`, with the ABA
+  of :mod:`ibvs_youla.model.dynamics_kernels` (Pinocchio's model, its numbers read once);
+  otherwise Pinocchio's ``pin.aba`` is called between the compiled stages.
 """
 
 from __future__ import annotations
@@ -35,10 +38,11 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from .._jit import jit
+from .._jit import jit, jit_available
 from ..model.arm import ABA_CONVENTION
+from ..model.dynamics_kernels import ChainDynamics, aba_compiled
 
-__all__ = ["ArmRk4", "rk4_arm_step", "rk4_step"]
+__all__ = ["ArmRk4", "rk4_aba_step", "rk4_arm_step", "rk4_step"]
 
 OdeRhs = Callable[[float, np.ndarray], np.ndarray]
 ForwardDynamics = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
@@ -122,10 +126,11 @@ def rk4_arm_step(
     return x + (dt * _RK4_WEIGHTS).dot(k)
 
 
-# Rows of ArmRk4's work array W (11, 2n): the stage derivatives k1..k4, the state at the start of
-# the step, the stage state [q; dq], [tau - damping * dq; tau], [damping; 0], the bounds of x, and
-# [the next stage's index, dt, 0...] (so that the stage kernels take two arguments: cheaper calls).
-_K, _X, _STAGE, _TAU, _DAMPING, _LOW, _HIGH, _META = 0, 4, 5, 6, 7, 8, 9, 10
+# Rows of ArmRk4's work array W (12, 2n): the stage derivatives k1..k4, the state at the start of
+# the step, the stage state [q; dq], [tau - damping * dq; tau], [damping; 0], the bounds of x,
+# [the next stage's index, dt, 0...] (so that the stage kernels take two arguments: cheaper
+# calls), and [ddq; 0] (the accelerations of rk4_aba_step's stages).
+_K, _X, _STAGE, _TAU, _DAMPING, _LOW, _HIGH, _META, _DDQ = 0, 4, 5, 6, 7, 8, 9, 10, 11
 
 
 @jit
@@ -174,6 +179,26 @@ def rk4_end(W: np.ndarray, ddq: np.ndarray, x: np.ndarray) -> bool:
     return inside
 
 
+@jit
+def rk4_aba_step(
+    C: np.ndarray, S: np.ndarray, W: np.ndarray, x: np.ndarray, tau: np.ndarray, dt: float, x_next: np.ndarray
+) -> bool:
+    """One RK4 step of ArmRk4 in one compiled call: its stages around the compiled ABA.
+
+    ``C``, ``S``: the chain and scratch of :class:`~ibvs_youla.model.dynamics_kernels.ChainDynamics`;
+    ``W`` ArmRk4's work array; x = [q; dq] (2n,) and tau (n,) as :meth:`ArmRk4.step`. Writes
+    the next state into ``x_next`` and returns whether it is within the bounds.
+    """
+    n = tau.shape[0]
+    q, dq, tau_stage, ddq = W[_STAGE, :n], W[_STAGE, n:], W[_TAU, :n], W[_DDQ, :n]
+    rk4_begin(W, x, tau, dt)
+    for _ in range(3):
+        aba_compiled(C, S, q, dq, tau_stage, ddq)
+        rk4_stage(W, ddq)
+    aba_compiled(C, S, q, dq, tau_stage, ddq)
+    return rk4_end(W, ddq, x_next)
+
+
 class ArmRk4:
     """One RK4 step of an arm's dynamics, torque held: :func:`rk4_arm_step` with ``arm.aba``.
 
@@ -181,26 +206,35 @@ class ArmRk4:
         arm: The arm (``damping``, ``pinocchio_model_data()``: Pinocchio's ABA includes the
             armature; the damping torque is applied here, as ``arm.aba`` does).
         x_low, x_high: Bounds (2n,) of the packed state [q; dq] that :meth:`step` tests.
+        compiled_aba: Run the step as one compiled call with the compiled ABA when the arm's
+            joints allow it (default); False: Pinocchio's ``pin.aba`` between compiled stages.
     """
 
-    def __init__(self, arm: Any, x_low: np.ndarray, x_high: np.ndarray) -> None:
+    def __init__(self, arm: Any, x_low: np.ndarray, x_high: np.ndarray, compiled_aba: bool = True) -> None:
         self._arm = arm
         n = len(arm.damping)
-        self._W = W = np.zeros((11, 2 * n))
+        self._W = W = np.zeros((12, 2 * n))
         W[_DAMPING, :n] = arm.damping
         W[_LOW], W[_HIGH] = x_low, x_high
         self._q, self._dq, self._tau = W[_STAGE, :n], W[_STAGE, n:], W[_TAU, :n]  # views fed to the ABA
+        # the compiled ABA's chain (None: a joint it declines, or no compiled kernels: pin.aba)
+        model = arm.pinocchio_model_data()[0]
+        chain = ChainDynamics.from_model(model) if compiled_aba and jit_available() else None
+        self._chain = None if chain is None else (chain.chain, chain.scratch())
 
     def step(self, x: np.ndarray, tau: np.ndarray, dt: float) -> tuple[np.ndarray, bool]:
         """(x at t + dt, within the bounds) from x = [q; dq] (2n,) at t, torque tau (n,) held [N m].
 
         Unvalidated: finite float arrays; the result is a new array (x is not modified).
         """
+        x_next = np.empty(x.shape[0])  # a new array (cheaper than one returned by compiled code)
+        if self._chain is not None:
+            C, S = self._chain
+            return x_next, rk4_aba_step(C, S, self._W, x, tau, dt, x_next)
         model, data = self._arm.pinocchio_model_data()
         W, q, dq, tau_stage, world = self._W, self._q, self._dq, self._tau, ABA_CONVENTION
         rk4_begin(W, x, tau, dt)
         rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world))
         rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world))
         rk4_stage(W, pin.aba(model, data, q, dq, tau_stage, world))
-        x_next = np.empty(x.shape[0])  # a new array (cheaper than one returned by compiled code)
         return x_next, rk4_end(W, pin.aba(model, data, q, dq, tau_stage, world), x_next)

@@ -398,8 +398,9 @@ class Arm:
     def pinocchio_model_data(self) -> tuple[pin.Model, pin.Data]:
         """(:attr:`model`, the calling thread's Pinocchio ``Data``), for kernels that call Pinocchio.
 
-        E.g. the plant's RK4 (:class:`~ibvs_youla.simulation.integrators.ArmRk4`), which calls
-        ``pin.aba`` (:data:`ABA_CONVENTION`) between compiled stages and applies the damping
+        E.g. the plant's RK4 (:class:`~ibvs_youla.simulation.integrators.ArmRk4`), which reads
+        the model's numbers once for the compiled ABA (:mod:`.dynamics_kernels`), or calls
+        ``pin.aba`` (:data:`ABA_CONVENTION`) between compiled stages, and applies the damping
         itself. Use both in this thread only, and do not modify the model.
         """
         return self.model, self._thread_data.data

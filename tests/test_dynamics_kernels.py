@@ -15,6 +15,7 @@ import pytest
 
 from ibvs_youla.control.inner import InnerLoopDesign
 from ibvs_youla.controllers.base import JointReading
+from ibvs_youla.exceptions import InvalidArrayError
 from ibvs_youla.model.arm import ABA_CONVENTION, Arm
 from ibvs_youla.model.dynamics_kernels import ChainDynamics, aba_compiled, rnea_compiled
 from ibvs_youla.simulation.actuation import InnerLoopActuator
@@ -144,3 +145,10 @@ def test_the_inner_loop_torque_is_the_filter_step_then_the_arms_rnea():
     reading = JointReading(0.0, q, dq)
     from_array = InnerLoopActuator(arm, 0.01, 1e-3)(q_ref, reading)
     np.testing.assert_array_equal(twin(list(q_ref), reading), from_array)
+
+
+def test_the_inner_loop_refuses_a_reference_of_another_size():
+    actuator = InnerLoopActuator(Arm.irb4600(), tau_in=0.01, dt=1e-3)
+    reading = JointReading(0.0, np.zeros(6), np.zeros(6))
+    with pytest.raises(InvalidArrayError, match=r"q_ref.*shape \(7,\).*shape \(6,\)"):
+        actuator(np.zeros(7), reading)

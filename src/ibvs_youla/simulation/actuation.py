@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from .._jit import jit, jit_available
+from .._validation import as_array
 from ..control.discrete import filter_step_difference
 from ..control.inner import InnerLoopDesign
 from ..control.singular_values import SingularValuePolicy
@@ -45,6 +46,7 @@ __all__ = [
     "inner_loop_torque",
 ]
 
+_FLOAT64 = np.dtype(np.float64)  # an array's dtype is this instance: `is` is the cheap test per tick
 _CHAIN = (
     CommandType.CAMERA_TWIST,
     CommandType.JOINT_VELOCITY,
@@ -87,7 +89,7 @@ class TwistToJointVelocity:
         else (or when the SVD fails) from the reference ``policy.pseudo_inverse(J_C) @ twist``.
         """
         J_C = self._arm.camera_jacobian_at(reading.q)
-        if getattr(twist, "shape", None) == (6,) and twist.dtype == np.float64:
+        if getattr(twist, "shape", None) == (6,) and twist.dtype is _FLOAT64:
             n, integrator = J_C.shape[1], self._integrator
             dq_ref = np.empty(n)
             if integrator is None:
@@ -182,8 +184,8 @@ class InnerLoopActuator:
     def __call__(self, q_ref: np.ndarray, reading: JointReading) -> np.ndarray:
         """Tau = M(q) G_C(z)[q_ref - q] + h(q, dq) (n,) [N m], from one RNEA pass."""
         q, dq = reading.q, reading.dq
-        if getattr(q_ref, "shape", None) != (self._n,) or q_ref.dtype != np.float64:
-            q_ref = np.asarray(q_ref, dtype=float).reshape(self._n)
+        if getattr(q_ref, "shape", None) != (self._n,) or q_ref.dtype is not _FLOAT64:
+            q_ref = as_array(q_ref, "q_ref", (self._n,), finite=False)  # a non-finite one diverges the plant
         tau = np.empty(self._n)
         if self._chain is not None:
             C, S, damping = self._chain

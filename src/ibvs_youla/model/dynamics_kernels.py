@@ -129,6 +129,38 @@ def _act_inv(S: np.ndarray, i: int, C: np.ndarray, m: np.ndarray, out: int) -> N
 
 
 @jit
+def _rotation_and_velocity(C: np.ndarray, S: np.ndarray, i: int, q_i: float, qd: float) -> None:
+    """Body i's rotation in its parent, R_placement Rz(q_i), and its velocity, the parent's plus e_6 qd.
+
+    The parent's velocity is in its row of S (the universe's, row 0, zero).
+    """
+    c, s = math.cos(q_i), math.sin(q_i)
+    for r in range(3):
+        a, b = C[i, _ROT + 3 * r], C[i, _ROT + 3 * r + 1]
+        S[i, _S_ROT + 3 * r] = c * a + s * b
+        S[i, _S_ROT + 3 * r + 1] = c * b - s * a
+        S[i, _S_ROT + 3 * r + 2] = C[i, _ROT + 3 * r + 2]
+    _act_inv(S, i, C, S[int(C[i, _PARENT]), _S_VEL : _S_VEL + 6], _S_VEL)
+    S[i, _S_VEL + 5] += qd
+
+
+@jit
+def _add_force_to_parent(C: np.ndarray, S: np.ndarray, i: int, parent: int, f: np.ndarray) -> None:
+    """Add the force f (body i's frame) to the parent's bias force: [R f_lin; R n + p x (R f_lin)]."""
+    R = S[i, _S_ROT : _S_ROT + 9]
+    px, py, pz = C[i, _POS], C[i, _POS + 1], C[i, _POS + 2]
+    f0 = R[0] * f[0] + R[1] * f[1] + R[2] * f[2]
+    f1 = R[3] * f[0] + R[4] * f[1] + R[5] * f[2]
+    f2 = R[6] * f[0] + R[7] * f[1] + R[8] * f[2]
+    S[parent, _S_FORCE] += f0
+    S[parent, _S_FORCE + 1] += f1
+    S[parent, _S_FORCE + 2] += f2
+    S[parent, _S_FORCE + 3] += R[0] * f[3] + R[1] * f[4] + R[2] * f[5] + (py * f2 - pz * f1)
+    S[parent, _S_FORCE + 4] += R[3] * f[3] + R[4] * f[4] + R[5] * f[5] + (pz * f0 - px * f2)
+    S[parent, _S_FORCE + 5] += R[6] * f[3] + R[7] * f[4] + R[8] * f[5] + (px * f1 - py * f0)
+
+
+@jit
 def _inertia_row(
     C: np.ndarray, i: int, k: int, x0: float, x1: float, x2: float, x3: float, x4: float, x5: float
 ) -> float:
@@ -155,23 +187,12 @@ def aba_compiled(
     """
     nb = C.shape[0]
     for r in range(6):
+        S[0, _S_VEL + r] = 0.0
         S[0, _S_ACC + r] = -C[0, r]
     # pass 1, base to tip: rotation in the parent, velocity, bias acceleration, bias force
     for i in range(1, nb):
-        c, s = math.cos(q[i - 1]), math.sin(q[i - 1])
-        for r in range(3):  # R = R_placement Rz(q)
-            a, b = C[i, _ROT + 3 * r], C[i, _ROT + 3 * r + 1]
-            S[i, _S_ROT + 3 * r] = c * a + s * b
-            S[i, _S_ROT + 3 * r + 1] = c * b - s * a
-            S[i, _S_ROT + 3 * r + 2] = C[i, _ROT + 3 * r + 2]
-        parent = int(C[i, _PARENT])
         qd = dq[i - 1]
-        if parent > 0:
-            _act_inv(S, i, C, S[parent, _S_VEL : _S_VEL + 6], _S_VEL)
-        else:
-            for r in range(6):
-                S[i, _S_VEL + r] = 0.0
-        S[i, _S_VEL + 5] += qd
+        _rotation_and_velocity(C, S, i, q[i - 1], qd)
         v0, v1, v2 = S[i, _S_VEL], S[i, _S_VEL + 1], S[i, _S_VEL + 2]
         w0, w1, w2 = S[i, _S_VEL + 3], S[i, _S_VEL + 4], S[i, _S_VEL + 5]
         # bias acceleration v x (e_6 qd) = [v1 qd, -v0 qd, 0, w1 qd, -w0 qd, 0]
@@ -262,17 +283,7 @@ def aba_compiled(
                 S[parent, pb + 6 * (3 + r) + 3 + k] += (
                     Z[6 * (3 + r) + 3 + k] + A[6 * (3 + r) + k] - A[6 * (3 + r) + 3 + k] - PAP[k]
                 )
-        # pa to the parent's frame: [R f; R n + p x (R f)]
-        f0 = R[0] * pa[0] + R[1] * pa[1] + R[2] * pa[2]
-        f1 = R[3] * pa[0] + R[4] * pa[1] + R[5] * pa[2]
-        f2 = R[6] * pa[0] + R[7] * pa[1] + R[8] * pa[2]
-        fp = _S_FORCE
-        S[parent, fp] += f0
-        S[parent, fp + 1] += f1
-        S[parent, fp + 2] += f2
-        S[parent, fp + 3] += R[0] * pa[3] + R[1] * pa[4] + R[2] * pa[5] + (py * f2 - pz * f1)
-        S[parent, fp + 4] += R[3] * pa[3] + R[4] * pa[4] + R[5] * pa[5] + (pz * f0 - px * f2)
-        S[parent, fp + 5] += R[6] * pa[3] + R[7] * pa[4] + R[8] * pa[5] + (px * f1 - py * f0)
+        _add_force_to_parent(C, S, i, parent, pa)
     # pass 3, base to tip: accelerations from the universe's -g, and ddq
     for i in range(1, nb):
         parent = int(C[i, _PARENT])
@@ -302,16 +313,9 @@ def rnea_compiled(
     h, ia = np.empty(6), np.empty(6)
     # pass 1, base to tip: velocity, acceleration, and the force the body needs, I a + v x* (I v)
     for i in range(1, nb):
-        c, s = math.cos(q[i - 1]), math.sin(q[i - 1])
-        for r in range(3):  # R = R_placement Rz(q)
-            a, b = C[i, _ROT + 3 * r], C[i, _ROT + 3 * r + 1]
-            S[i, _S_ROT + 3 * r] = c * a + s * b
-            S[i, _S_ROT + 3 * r + 1] = c * b - s * a
-            S[i, _S_ROT + 3 * r + 2] = C[i, _ROT + 3 * r + 2]
-        parent = int(C[i, _PARENT])
         qd = dq[i - 1]
-        _act_inv(S, i, C, S[parent, _S_VEL : _S_VEL + 6], _S_VEL)
-        S[i, _S_VEL + 5] += qd
+        _rotation_and_velocity(C, S, i, q[i - 1], qd)
+        parent = int(C[i, _PARENT])
         _act_inv(S, i, C, S[parent, _S_ACC : _S_ACC + 6], _S_ACC)
         v0, v1, v2 = S[i, _S_VEL], S[i, _S_VEL + 1], S[i, _S_VEL + 2]
         w0, w1, w2 = S[i, _S_VEL + 3], S[i, _S_VEL + 4], S[i, _S_VEL + 5]
@@ -339,15 +343,4 @@ def rnea_compiled(
         parent = int(C[i, _PARENT])
         if parent == 0:
             continue
-        R = S[i, _S_ROT : _S_ROT + 9]
-        px, py, pz = C[i, _POS], C[i, _POS + 1], C[i, _POS + 2]
-        f = S[i, _S_FORCE : _S_FORCE + 6]
-        f0 = R[0] * f[0] + R[1] * f[1] + R[2] * f[2]
-        f1 = R[3] * f[0] + R[4] * f[1] + R[5] * f[2]
-        f2 = R[6] * f[0] + R[7] * f[1] + R[8] * f[2]
-        S[parent, _S_FORCE] += f0
-        S[parent, _S_FORCE + 1] += f1
-        S[parent, _S_FORCE + 2] += f2
-        S[parent, _S_FORCE + 3] += R[0] * f[3] + R[1] * f[4] + R[2] * f[5] + (py * f2 - pz * f1)
-        S[parent, _S_FORCE + 4] += R[3] * f[3] + R[4] * f[4] + R[5] * f[5] + (pz * f0 - px * f2)
-        S[parent, _S_FORCE + 5] += R[6] * f[3] + R[7] * f[4] + R[8] * f[5] + (px * f1 - py * f0)
+        _add_force_to_parent(C, S, i, parent, S[i, _S_FORCE : _S_FORCE + 6])

@@ -38,6 +38,7 @@ from ibvs_youla.simulation.results import SimulationResult
 CONTROLLERS = ("ibvs-current", "pbvs", "ibvs-desired")
 DEFINITION = {"family": "free-planar", "cases": 12, "controllers": CONTROLLERS, "seed": 3, "duration": 20.0}
 RUNS = 36
+BATCH_ROWS = 3  # rows per Parquet file of the CLI's campaigns
 CLI_ARGS = [
     "campaign",
     "--family",
@@ -51,7 +52,7 @@ CLI_ARGS = [
     "--duration",
     "20",
     "--batch-rows",
-    "3",
+    str(BATCH_ROWS),
     "--no-progress",
 ]
 TIMED = ("wall_s", "update_median_us", "update_p95_us")
@@ -244,7 +245,8 @@ def test_a_real_cluster_losing_a_worker_stores_every_row_once(tmp_path, referenc
             text=True,
         )
         processes.append(client)
-        _wait_for(lambda: _stored(out) >= 3 or client.poll() is not None, 60, "the first batch of rows")
+        first_batch = lambda: _stored(out) >= BATCH_ROWS or client.poll() is not None  # noqa: E731
+        _wait_for(first_batch, 60, "the first batch of rows")
         busy: list[str] = []
 
         def a_worker_is_busy() -> bool:
@@ -259,7 +261,7 @@ def test_a_real_cluster_losing_a_worker_stores_every_row_once(tmp_path, referenc
     stdout, stderr = client.communicate(timeout=120)
     assert client.returncode == 0, stderr
     assert victim.wait(timeout=10) == -signal.SIGKILL and sum(w.poll() is None for w in workers) == 1
-    assert 3 <= stored_at_kill < RUNS  # the worker died mid-campaign, running a task
+    assert BATCH_ROWS <= stored_at_kill < RUNS  # the worker died mid-campaign, running a task
     assert f"{RUNS} run on scheduler {address}" in stdout
     assert_same_rows(read_rows(out), reference[1])
     assert len(list((out / "series").glob("*.npz"))) == RUNS and not list((out / "series").glob(".*"))

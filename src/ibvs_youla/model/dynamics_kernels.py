@@ -7,12 +7,16 @@ returned array), and the four calls with the stages between them were the larges
 1 kHz tick. :class:`ChainDynamics` reads the numbers of a Pinocchio model once (joint
 placements, axes, spatial inertias, armature, gravity), and :func:`aba_compiled` runs the ABA on
 them in compiled code, so that a whole RK4 step
-(:func:`ibvs_youla.simulation.integrators.rk4_aba_step`) is one compiled call.
+(:func:`ibvs_youla.simulation.integrators.rk4_aba_step`) is one compiled call;
+:func:`rnea_compiled` does the same for tau = M(q) ddq + h(q, dq), the feedback linearization of
+Eq. (33), so that the inner loop's torque is one compiled call too
+(:func:`ibvs_youla.simulation.actuation.inner_loop_torque`).
 
 Pinocchio stays the model and the reference: :meth:`ChainDynamics.from_model` reads its
-``Model``, and ``tests/test_dynamics_kernels.py`` pins :func:`aba_compiled` to ``pin.aba`` on
-random states of several chains. It is the same algorithm with another order of floating-point
-operations, so the two agree to rounding (1e-13 relative), not bit for bit.
+``Model``, and ``tests/test_dynamics_kernels.py`` pins :func:`aba_compiled` and :func:`rnea_compiled`
+to ``pin.aba`` and ``pin.rnea`` on random states of several chains and a tree. They are the same
+algorithms with another order of floating-point operations, so they agree to rounding (1e-12 of
+the result's scale, the tests' bound), not bit for bit.
 
 Conventions (Pinocchio's): a motion [v; w] and a force [f; n] list the linear part first; a
 joint placement (R, p) maps the joint's frame into its parent's (x_parent = R x + p); a joint
@@ -52,16 +56,16 @@ _SCRATCH_COLUMNS = 71
 
 
 def _rotation_to(axis: np.ndarray) -> np.ndarray:
-    """A rotation Q with Q e_z = axis (unit): identity for e_z, else about e_z x axis."""
-    z = np.array([0.0, 0.0, 1.0])
-    c = float(np.dot(z, axis))
-    if c > 1.0 - 1e-15:
-        return np.eye(3)
-    if c < -1.0 + 1e-15:
-        return np.diag([1.0, -1.0, -1.0])  # half a turn about x
-    k = np.cross(z, axis)
-    angle = math.atan2(float(np.linalg.norm(k)), c)
-    return pin.exp3(k / np.linalg.norm(k) * angle)
+    """A rotation Q with Q e_z = axis (unit): about e_z x axis, or I / half a turn about x for +-e_z.
+
+    Only an exactly zero cross product takes the special cases: an axis 1e-9 rad off -z (a CAD
+    export's "2e-8 0 -1") is turned onto, not snapped to -z, so its dynamics stay Pinocchio's.
+    """
+    k = np.cross(np.array([0.0, 0.0, 1.0]), axis)
+    s = float(np.linalg.norm(k))
+    if s == 0.0:
+        return np.eye(3) if axis[2] > 0.0 else np.diag([1.0, -1.0, -1.0])
+    return pin.exp3(k / s * math.atan2(s, float(axis[2])))
 
 
 @dataclass(frozen=True)
@@ -79,7 +83,11 @@ class ChainDynamics:
 
     @classmethod
     def from_model(cls, model: pin.Model) -> ChainDynamics | None:
-        """The chain of ``model``, or None when a joint is not a single-axis revolute one."""
+        """The chain of ``model``, or None when a joint is not a single-axis revolute one.
+
+        Declined as well: a ``RevoluteUnaligned`` axis that is not a unit vector (to 1e-12; a
+        malformed model, whose dynamics Pinocchio computes with the axis as given).
+        """
         n = model.njoints - 1
         if n < 1 or model.nq != n or model.nv != n:
             return None
@@ -91,9 +99,11 @@ class ChainDynamics:
                 axis = np.array(_AXES[name])
             elif name == "JointModelRevoluteUnaligned":
                 axis = np.array(joint.extract().axis, dtype=float)
+                if not abs(float(np.linalg.norm(axis)) - 1.0) <= 1e-12:  # Pinocchio would use it as given
+                    return None
             else:
                 return None
-            Q.append(_rotation_to(axis / np.linalg.norm(axis)))
+            Q.append(_rotation_to(axis))
         C = np.zeros((n + 1, _CHAIN_COLUMNS))
         C[0, :6] = model.gravity.vector
         for i in range(1, n + 1):

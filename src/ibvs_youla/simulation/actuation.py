@@ -133,28 +133,29 @@ class VelocityToPosition:
 
 @jit
 def inner_loop_torque(
-    M: np.ndarray,
+    filter_matrix: np.ndarray,
     z: np.ndarray,
     z_next: np.ndarray,
     q_ref: np.ndarray,
     q: np.ndarray,
     dq: np.ndarray,
-    C: np.ndarray,
-    S: np.ndarray,
+    chain: np.ndarray,
+    scratch: np.ndarray,
     damping: np.ndarray,
     v: np.ndarray,
     tau: np.ndarray,
 ) -> None:
     """One tick of the inner loop: v = G_C(z)[q_ref - q] (Eq. (41)), tau = M(q) v + h(q, dq) (Eq. (33)).
 
-    The filter's recursion (``filter_step_difference`` on its stacked matrix M, state z (n +
-    1, m) advanced in place through z_next), then the RNEA of the chain ``C`` (scratch ``S``)
-    and the damping torque ``damping * dq``: ``arm.rnea(q, dq, v)`` to rounding. Unvalidated
-    float64 arrays; v (m,) and tau (m,) are written.
+    G_C's recursion (``filter_step_difference`` on the filter's stacked matrix [[A, B], [C, D]],
+    its state z (n_states + 1, n) advanced in place through z_next), then the RNEA of the chain
+    (:class:`~ibvs_youla.model.dynamics_kernels.ChainDynamics`, its scratch) and the damping torque
+    ``damping * dq``: ``arm.rnea(q, dq, v)`` to rounding. Unvalidated float64 arrays: q_ref, q
+    [rad], dq [rad/s], damping [N m s/rad] (n,); v [rad/s^2] and tau [N m] (n,) are written.
     """
-    filter_step_difference(M, z, z_next, q_ref, q, v)
+    filter_step_difference(filter_matrix, z, z_next, q_ref, q, v)
     z[:, :] = z_next
-    rnea_compiled(C, S, q, dq, v, tau)
+    rnea_compiled(chain, scratch, q, dq, v, tau)
     for j in range(tau.shape[0]):
         tau[j] += damping[j] * dq[j]
 
@@ -166,32 +167,40 @@ class InnerLoopActuator:
         arm: The controller's arm model (feedback linearization, Eq. (33)).
         tau_in: Inner-loop time constant [s] (Eq. (41), (63)).
         dt: Joint-loop period [s] (Tustin discretization of G_C).
+        compiled_rnea: One compiled call per tick (:func:`inner_loop_torque`) when the arm's
+            joints allow it (default); False: the filter's kernel, then ``arm.rnea`` (Pinocchio).
     """
 
     output_type = CommandType.JOINT_TORQUE
 
-    def __init__(self, arm: Any, tau_in: float, dt: float) -> None:
+    def __init__(self, arm: Any, tau_in: float, dt: float, compiled_rnea: bool = True) -> None:
         inner = InnerLoopDesign(tau_in).discrete_controller(dt, arm.nq)
         self._n, self._rnea = arm.nq, arm.rnea
         # G_C's recursion on the actuator's own state (the filter's matrix, so its floats)
-        self._M = inner.stacked_matrix
+        self._filter_matrix = inner.stacked_matrix
         self._z, self._z_next = np.zeros((inner.n_states + 1, arm.nq)), np.zeros((inner.n_states + 1, arm.nq))
         self._v = np.empty(arm.nq)
-        chain = ChainDynamics.from_model(arm.pinocchio_model_data()[0]) if jit_available() else None
+        model = arm.pinocchio_model_data()[0]
+        chain = ChainDynamics.from_model(model) if compiled_rnea and jit_available() else None
         damping = np.array(arm.damping, dtype=float)
         self._chain = None if chain is None else (chain.chain, chain.scratch(), damping)
 
     def __call__(self, q_ref: np.ndarray, reading: JointReading) -> np.ndarray:
-        """Tau = M(q) G_C(z)[q_ref - q] + h(q, dq) (n,) [N m], from one RNEA pass."""
+        """Tau = M(q) G_C(z)[q_ref - q] + h(q, dq) (n,) [N m], from one RNEA pass.
+
+        A non-finite ``q_ref`` gives a non-finite torque, not an error: the plant reports the
+        divergence. A ``q_ref`` of another size raises InvalidArrayError.
+        """
         q, dq = reading.q, reading.dq
         if getattr(q_ref, "shape", None) != (self._n,) or q_ref.dtype is not _FLOAT64:
-            q_ref = as_array(q_ref, "q_ref", (self._n,), finite=False)  # a non-finite one diverges the plant
+            q_ref = as_array(q_ref, "q_ref", (self._n,), finite=False)
         tau = np.empty(self._n)
         if self._chain is not None:
-            C, S, damping = self._chain
-            inner_loop_torque(self._M, self._z, self._z_next, q_ref, q, dq, C, S, damping, self._v, tau)
+            chain, scratch, damping = self._chain
+            z, z_next, v = self._z, self._z_next, self._v
+            inner_loop_torque(self._filter_matrix, z, z_next, q_ref, q, dq, chain, scratch, damping, v, tau)
             return tau
-        filter_step_difference(self._M, self._z, self._z_next, q_ref, q, self._v)
+        filter_step_difference(self._filter_matrix, self._z, self._z_next, q_ref, q, self._v)
         self._z[:, :] = self._z_next
         return self._rnea(q, dq, self._v)  # type: ignore[no-any-return]
 

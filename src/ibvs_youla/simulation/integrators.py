@@ -200,7 +200,12 @@ def rk4_aba_step(
 
 
 class ArmRk4:
-    """One RK4 step of an arm's dynamics, torque held: :func:`rk4_arm_step` with ``arm.aba``.
+    """One RK4 step of an arm's dynamics, torque held: :func:`rk4_arm_step` of the arm's ABA.
+
+    For a chain of single-axis revolute joints the step is one compiled call,
+    :func:`rk4_aba_step`, with the compiled ABA on the numbers of the arm's Pinocchio model
+    (:mod:`ibvs_youla.model.dynamics_kernels`); otherwise Pinocchio's ``pin.aba`` (what
+    ``arm.aba`` calls) is called between the compiled stages.
 
     Args:
         arm: The arm (``damping``, ``pinocchio_model_data()``: Pinocchio's ABA includes the

@@ -1,8 +1,9 @@
 """The simulated arm: true joint state, encoder readings, RK4 steps under a held torque.
 
-The plant integrates the rigid-body dynamics of Eq. (29) (``arm.forward_dynamics``:
-Pinocchio ABA with armature, minus viscous damping) with fixed-step RK4, the torque
-held over each step (zero-order hold, see :mod:`.integrators`).
+The plant integrates the rigid-body dynamics of Eq. (29) (``arm.forward_dynamics``: the
+ABA with armature, minus viscous damping; run in compiled code on the numbers of the arm's
+Pinocchio model, which stays its reference, see :mod:`.integrators`) with fixed-step RK4, the
+torque held over each step (zero-order hold).
 
 **Encoders and the disturbance of scenario 2 (ERRATA 14).** The state is the *true*
 joint angles and velocities. The encoders read ``q_encoder = q_true - d``, where ``d``
@@ -140,7 +141,7 @@ class ArmPlant:
         margin = self.bounds.position_margin
         self._x_low = np.concatenate([self._q_min - margin, -self._dq_bound])  # packed [q; dq] bounds
         self._x_high = np.concatenate([self._q_max + margin, self._dq_bound])
-        self._rk4 = ArmRk4(arm, self._x_low, self._x_high)  # RK4 of arm.forward_dynamics, bounds tested
+        self._rk4 = ArmRk4(arm, self._x_low, self._x_high)  # RK4 of the arm's dynamics, bounds tested
         self._camera_fk = arm.camera_fk  # the kernel of arm.camera_pose: the state is always finite
         q_encoder = np.zeros(n) if q_encoder is None else q_encoder
         self.reset(q_encoder, np.zeros(n) if dq is None else dq, t=t)

@@ -231,14 +231,27 @@ def test_a_hand_eye_error_displaces_a_pose_regulated_camera_by_itself(arm):
 
 
 # ---------------------------------------------------------------------- model mismatch
-def test_mismatch_and_friction_raise_the_inner_tracking_error_but_the_image_loop_still_converges(arm):
+@pytest.mark.parametrize(
+    ("kind", "tracking"),
+    # [deg], measured: 0.1066 with inertias x2, 0.0604 with friction; 0.0079 nominal
+    [("inertia", 0.1066), ("friction", 0.0604)],
+)
+def test_mismatch_raises_the_inner_tracking_error_but_the_image_loop_still_converges(arm, kind, tracking):
+    """Each half of level 1 of the robustness study's "mismatch" axis alone, against the nominal run.
+
+    Inertias x2, or friction alone (Coulomb 2 % of each torque limit, viscous 2 % of it at the
+    speed limit): the feedback linearization (Eq. (33)) knows neither, and the inner loop has no
+    integral action against them.
+    """
     scenario = iy.scenarios.get("physical-2")
     tau_max, dq_max = np.asarray(arm.tau_max), np.asarray(arm.dq_max)
-    mismatch = Disturbances(  # level 1 of the robustness study's "mismatch" axis
-        plant_inertia_scale=2.0,
-        viscous_friction=tuple(0.02 * tau_max / dq_max),  # 2 % of the torque limit at full speed
-        coulomb_friction=tuple(0.02 * tau_max),  # 2 % of the torque limit
-    )
+    mismatch = {
+        "inertia": Disturbances(plant_inertia_scale=2.0),
+        "friction": Disturbances(
+            viscous_friction=tuple(0.02 * tau_max / dq_max),  # 2 % of the torque limit at full speed
+            coulomb_friction=tuple(0.02 * tau_max),  # 2 % of the torque limit
+        ),
+    }[kind]
     nominal = iy.simulate(scenario, "fb", duration=3.0, arm=arm)
     mismatched = iy.simulate(scenario, "fb", duration=3.0, arm=arm, disturbances=mismatch)
     late = nominal.t > 1.0
@@ -246,12 +259,11 @@ def test_mismatch_and_friction_raise_the_inner_tracking_error_but_the_image_loop
     def tracking_deg(r):
         return np.degrees(np.abs(r.q_ref - r.q)[late].max())
 
-    # measured 0.0079 deg nominal, 0.1066 deg with the mismatch: no integral action against friction.
     # Both runs are deterministic: the mismatched value is pinned to 1 % (room for another BLAS's
-    # summation order, not for another friction law), where 0.08-0.15 deg allowed -25 % to +40 %
+    # summation order, not for another friction law)
     assert tracking_deg(nominal) < 0.01
-    assert tracking_deg(mismatched) == pytest.approx(0.1066, rel=0.01)
-    assert np.degrees(np.abs(mismatched.q_true - nominal.q_true).max()) > 0.05  # another response
+    assert tracking_deg(mismatched) == pytest.approx(tracking, rel=0.01)
+    assert np.degrees(np.abs(mismatched.q_true - nominal.q_true).max()) > 0.01  # another response
     # the image loop takes the camera in at the same pace: pose error at 3 s within 5 % of nominal
-    # (measured 30.70 mm against 29.89 mm, +2.7 %)
+    # (measured 29.89 mm nominal, 30.70 mm with inertias x2, 29.90 mm with friction)
     assert mismatched.final_pose_error()[0] == pytest.approx(nominal.final_pose_error()[0], rel=0.05)

@@ -22,9 +22,10 @@ Three entry points:
 * :class:`ArmRk4` — :func:`rk4_arm_step` of an :class:`~ibvs_youla.model.arm.Arm`'s
   ``forward_dynamics``, the plant's integrator (:class:`~ibvs_youla.simulation.plant.ArmPlant`):
   the ABA four times, and between the calls one compiled kernel (:func:`ibvs_youla._jit.jit`)
-  that stores the stage derivative and forms the next stage's state and torque ``tau - damping
-  * dq``; the last one also forms x + dt (k1 + 2 k2 + 2 k3 + k4) / 6 and tests it against the
-  plant's divergence bounds. The same stages, none skipped. For an arm of single-axis revolute
+  that stores the stage derivative and forms the next stage's state and torque
+  ``tau - tau_f(dq)`` (the damping and the plant's joint friction, :class:`ArmRk4`); the last
+  one also forms x + dt (k1 + 2 k2 + 2 k3 + k4) / 6 and tests it against the plant's
+  divergence bounds. The same stages, none skipped. For an arm of single-axis revolute
   joints (the IRB 4600) the whole step is one compiled call, :func:`rk4_aba_step`, with the ABA
   of :mod:`ibvs_youla.model.dynamics_kernels` (Pinocchio's model, its numbers read once);
   otherwise Pinocchio's ``pin.aba`` is called between the compiled stages.
@@ -126,11 +127,23 @@ def rk4_arm_step(
     return x + (dt * _RK4_WEIGHTS).dot(k)
 
 
-# Rows of ArmRk4's work array W (12, 2n): the stage derivatives k1..k4, the state at the start of
-# the step, the stage state [q; dq], [tau - damping * dq; tau], [damping; 0], the bounds of x,
+# Rows of ArmRk4's work array W (13, 2n): the stage derivatives k1..k4, the state at the start of
+# the step, the stage state [q; dq], [tau - tau_f(dq); tau], [b; c] (the joint friction of
+# `joint_friction`: damping plus viscous friction b, Coulomb friction c), the bounds of x,
 # [the next stage's index, dt, 0...] (so that the stage kernels take two arguments: cheaper
-# calls), and [ddq; 0] (the accelerations of rk4_aba_step's stages).
-_K, _X, _STAGE, _TAU, _DAMPING, _LOW, _HIGH, _META, _DDQ = 0, 4, 5, 6, 7, 8, 9, 10, 11
+# calls), [ddq; 0] (the accelerations of rk4_aba_step's stages) and [1 / v_s; 0] (the Coulomb
+# law's regularization speed, per joint).
+_K, _X, _STAGE, _TAU, _DAMPING, _LOW, _HIGH, _META, _DDQ, _SPEED = 0, 4, 5, 6, 7, 8, 9, 10, 11, 12
+
+
+@jit
+def joint_friction(W: np.ndarray, j: int, v: float) -> float:
+    """tau_f of joint j at speed v [N m]: b v + c tanh(v / v_s) (b, c, 1 / v_s in W; c = 0: b v alone)."""
+    n = W.shape[1] // 2
+    c = W[_DAMPING, n + j]
+    if c == 0.0:
+        return W[_DAMPING, j] * v  # without Coulomb friction: the floats of b v alone
+    return W[_DAMPING, j] * v + c * np.tanh(v * W[_SPEED, j])
 
 
 @jit
@@ -143,7 +156,7 @@ def rk4_begin(W: np.ndarray, x: np.ndarray, tau: np.ndarray, dt: float) -> None:
         W[_STAGE, j] = x[j]
     for j in range(n):
         W[_TAU, n + j] = tau[j]
-        W[_TAU, j] = tau[j] - W[_DAMPING, j] * x[n + j]
+        W[_TAU, j] = tau[j] - joint_friction(W, j, x[n + j])
         W[_K, j] = x[n + j]
 
 
@@ -161,7 +174,7 @@ def rk4_stage(W: np.ndarray, ddq: np.ndarray) -> None:
     for j in range(n):
         v = W[_STAGE, n + j]
         W[_K + i + 1, j] = v
-        W[_TAU, j] = W[_TAU, n + j] - W[_DAMPING, j] * v
+        W[_TAU, j] = W[_TAU, n + j] - joint_friction(W, j, v)
 
 
 @jit
@@ -207,19 +220,43 @@ class ArmRk4:
     (:mod:`ibvs_youla.model.dynamics_kernels`); otherwise Pinocchio's ``pin.aba`` (what
     ``arm.aba`` calls) is called between the compiled stages.
 
+    The torque of each stage is ``tau - tau_f(dq)``, the held torque minus the joint friction of
+    the stage's speeds: ``tau_f = (damping + b) dq + c tanh(dq / v_s)``, the arm's damping (Eq.
+    (32)) plus the plant's viscous friction ``b`` and regularized Coulomb friction ``c``
+    (:class:`~ibvs_youla.simulation.disturbances.PlantArm`, whose ``aba`` is the same law), in
+    both paths.
+
     Args:
         arm: The arm (``damping``, ``pinocchio_model_data()``: Pinocchio's ABA includes the
             armature; the damping torque is applied here, as ``arm.aba`` does).
         x_low, x_high: Bounds (2n,) of the packed state [q; dq] that :meth:`step` tests.
         compiled_aba: Run the step as one compiled call with the compiled ABA when the arm's
             joints allow it (default); False: Pinocchio's ``pin.aba`` between compiled stages.
+        viscous: Viscous friction b (n,) [N m s/rad], added to the damping; None: none.
+        coulomb: Coulomb friction c (n,) [N m]; None: none.
+        coulomb_speed: Regularization speed v_s of the Coulomb law [rad/s].
     """
 
-    def __init__(self, arm: Any, x_low: np.ndarray, x_high: np.ndarray, compiled_aba: bool = True) -> None:
+    def __init__(
+        self,
+        arm: Any,
+        x_low: np.ndarray,
+        x_high: np.ndarray,
+        compiled_aba: bool = True,
+        *,
+        viscous: np.ndarray | None = None,
+        coulomb: np.ndarray | None = None,
+        coulomb_speed: float = 0.05,
+    ) -> None:
         self._arm = arm
         n = len(arm.damping)
-        self._W = W = np.zeros((12, 2 * n))
+        self._W = W = np.zeros((13, 2 * n))
         W[_DAMPING, :n] = arm.damping
+        if viscous is not None:
+            W[_DAMPING, :n] += viscous
+        if coulomb is not None:
+            W[_DAMPING, n:] = coulomb
+        W[_SPEED, :n] = 1.0 / coulomb_speed
         W[_LOW], W[_HIGH] = x_low, x_high
         self._q, self._dq, self._tau = W[_STAGE, :n], W[_STAGE, n:], W[_TAU, :n]  # views fed to the ABA
         # the compiled ABA's chain (None: a joint it declines, or no compiled kernels: pin.aba)

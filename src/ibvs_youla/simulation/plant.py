@@ -141,7 +141,10 @@ class ArmPlant:
         margin = self.bounds.position_margin
         self._x_low = np.concatenate([self._q_min - margin, -self._dq_bound])  # packed [q; dq] bounds
         self._x_high = np.concatenate([self._q_max + margin, self._dq_bound])
-        self._rk4 = ArmRk4(arm, self._x_low, self._x_high)  # RK4 of the arm's dynamics, bounds tested
+        # RK4 of the arm's dynamics, bounds tested; the joint friction of a PlantArm (None: none)
+        friction = getattr(arm, "friction_parameters", None)
+        b, c, v_s = (None, None, 0.05) if friction is None else friction()
+        self._rk4 = ArmRk4(arm, self._x_low, self._x_high, viscous=b, coulomb=c, coulomb_speed=v_s)
         self._camera_fk = arm.camera_fk  # the kernel of arm.camera_pose: the state is always finite
         q_encoder = np.zeros(n) if q_encoder is None else q_encoder
         self.reset(q_encoder, np.zeros(n) if dq is None else dq, t=t)

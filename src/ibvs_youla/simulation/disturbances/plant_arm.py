@@ -16,7 +16,9 @@ true arm differs from the controller's model. It stands in for an :class:`~ibvs_
 * **limits**: ``dq_max`` and ``tau_max`` scaled by ``limit_scale``, where the plant clips
   (``ArmPlant(saturate_torque=True, saturate_speed=True)``).
 
-Without friction, ``aba`` is the wrapped arm's own kernel: no cost per step.
+Without friction, ``aba`` is the wrapped arm's own kernel: no cost per step. The plant's RK4
+(:class:`~ibvs_youla.simulation.integrators.ArmRk4`, compiled or around ``pin.aba``) does not call
+``aba``: it reads :meth:`PlantArm.friction_parameters` and applies the same law at every stage.
 """
 
 from __future__ import annotations
@@ -24,6 +26,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+
+from ..._validation import as_array
 
 __all__ = ["PlantArm"]
 
@@ -63,6 +67,16 @@ class PlantArm:
         if name == "arm":  # not set yet (unpickling): no recursion
             raise AttributeError(name)
         return getattr(self.arm, name)
+
+    def friction_parameters(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """(b (n,) [N m s/rad], c (n,) [N m], v_s [rad/s]): the friction law, for the plant's RK4."""
+        return self.viscous, self.coulomb, self.coulomb_speed
+
+    def forward_dynamics(self, q: Any, dq: Any, tau: Any) -> np.ndarray:
+        """Joint accelerations (n,) [rad/s^2] under ``tau`` minus the friction (validated :meth:`aba`)."""
+        n = self.viscous.shape[0]
+        dq, tau = as_array(dq, "dq", (n,)), as_array(tau, "tau", (n,))
+        return self.arm.forward_dynamics(q, dq, tau - self.friction(dq))
 
     def friction(self, dq: np.ndarray) -> np.ndarray:
         """tau_f = b dq + c tanh(dq / v_s) (n,) [N m] (module docstring)."""

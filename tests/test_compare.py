@@ -23,7 +23,7 @@ from ibvs_youla.analysis.comparison_figures import COMPARISON_FIGURES, plot_comp
 from ibvs_youla.exceptions import InvalidParameterError, SimulationDivergedError
 from test_cli import one_error_line, run
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+CONTROLLERS_PAGE = Path(__file__).resolve().parents[1] / "docs" / "controllers.md"
 Z_STAR = 0.75  # [m]
 CENTRE_O = np.zeros(3)  # the square's centre in the base frame [m]
 
@@ -351,7 +351,7 @@ def test_the_whole_suite_outcomes(capsys, tmp_path):
     assert report["controllers"] == list(suites.twist_controllers())
     assert (tmp_path / "suite.md").read_text() in text
     table = (tmp_path / "suite.md").read_text().split("\n\n", 1)[1]
-    assert table in README.read_text(encoding="utf-8")  # the README's table is this command's output
+    assert table in CONTROLLERS_PAGE.read_text(encoding="utf-8")  # the docs page's table is this output
     outcome = {(t["task"], r["controller"]): r for t in report["tasks"] for r in t["rows"]}
     failed = {key: r["outcome"] for key, r in outcome.items() if r["outcome"] != "converged"}
     assert failed == {

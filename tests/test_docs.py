@@ -1,4 +1,5 @@
-"""The README's Python snippets run, in order, in one namespace, as a reader would paste them."""
+"""The Python snippets of the README and of every docs page run, in order, one namespace per page,
+as a reader would paste them."""
 
 from __future__ import annotations
 
@@ -52,24 +53,61 @@ def test_readme_python_snippets_run(tmp_path, monkeypatch):
     assert lines[0] == "complete"
     assert 1e-5 < float(lines[1]) < 1e-3
     assert "(3 tau s + 1)" in (ROOT / "README.md").read_text() and "0.03 s + 1" in out.getvalue()
-    # The user-written controller of "One servo loop for every method": a constant twist on the
-    # free-flying camera ends exactly on its target (0.25 m/s for 2 s along -z).
-    assert "complete (201, 8)" in lines
-    mm, deg = (float(v) for v in lines[lines.index("complete (201, 8)") + 1].strip("()").split(","))
-    assert mm < 1e-9 and deg < 1e-9
-    # The baselines on ViSP's tutorial-ibvs-4pts case: every method reaches the target.
-    baselines = [
-        line.split(" ", 2) for line in lines if line.split(" ")[0] in namespace["iy"].controllers.names()
-    ]
-    assert [b[0] for b in baselines] == [
-        "ibvs-current",
-        "ibvs-desired",
-        "ibvs-mean",
-        "pbvs",
-        "2.5d",
-        "hybrid",
-        "mpc-ibvs",
-    ]
-    for name, status, errors in baselines:
-        mm, deg = (float(v) for v in errors.strip("()").split(","))
-        assert status == "complete" and mm < 3e-3 and deg < 1e-3, name
+
+
+DOCS_PAGES = sorted((ROOT / "docs").rglob("*.md"))
+
+
+def run_blocks(path: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[dict, list[str]]:
+    """Run the page's python blocks in order in one namespace; its namespace and printed lines."""
+    blocks = python_blocks(path.read_text(encoding="utf-8"))
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("IBVS_YOULA_SMALL", "1")
+    namespace: dict = {"__name__": "__docs__"}
+    out = io.StringIO()
+    name = path.relative_to(ROOT).as_posix()
+    for i, block in enumerate(blocks):
+        try:
+            with contextlib.redirect_stdout(out):
+                exec(compile(block, f"{name} python block {i + 1}", "exec"), namespace)
+        except Exception as exc:
+            pytest.fail(f"{name} python block {i + 1} raised {type(exc).__name__}: {exc}\n{block}")
+    return namespace, out.getvalue().splitlines()
+
+
+@pytest.mark.parametrize("page", DOCS_PAGES, ids=lambda p: p.relative_to(ROOT / "docs").as_posix())
+def test_docs_page_python_snippets_run(page, tmp_path, monkeypatch):
+    namespace, lines = run_blocks(page, tmp_path, monkeypatch)
+    name = page.relative_to(ROOT / "docs").as_posix()
+    if name == "simulation.md":
+        # The user-written controller of "One servo loop for every method": a constant twist on the
+        # free-flying camera ends exactly on its target (0.25 m/s for 2 s along -z).
+        assert "complete (201, 8)" in lines
+        mm, deg = (float(v) for v in lines[lines.index("complete (201, 8)") + 1].strip("()").split(","))
+        assert mm < 1e-9 and deg < 1e-9
+    if name == "controllers.md":
+        # The baselines on ViSP's tutorial-ibvs-4pts case: every method reaches the target.
+        baselines = [
+            line.split(" ", 2) for line in lines if line.split(" ")[0] in namespace["iy"].controllers.names()
+        ]
+        assert [b[0] for b in baselines] == [
+            "ibvs-current",
+            "ibvs-desired",
+            "ibvs-mean",
+            "pbvs",
+            "2.5d",
+            "hybrid",
+            "mpc-ibvs",
+        ]
+        for method, status, errors in baselines:
+            mm, deg = (float(v) for v in errors.strip("()").split(","))
+            assert status == "complete" and mm < 3e-3 and deg < 1e-3, method
+    if name == "own-robot.md":
+        status = next(line for line in lines if line.startswith("ur5:"))
+        assert status.startswith("ur5: complete")
+
+
+def test_the_docs_pages_that_promise_snippets_have_them():
+    counts = {p.name: len(python_blocks(p.read_text(encoding="utf-8"))) for p in DOCS_PAGES}
+    for page in ("getting-started.md", "simulation.md", "controllers.md", "images.md", "robustness.md"):
+        assert counts[page] >= 1, page

@@ -288,7 +288,7 @@ class OuterLoopController:
         self._last_J = None
 
     def update(self, e_image: Any, J: Any = None) -> np.ndarray:
-        """One camera sample: q_fb[k] = K(z)[P e][k].
+        """One camera sample: ``q_fb[k] = K(z)[P e][k]``.
 
         Args:
             e_image: Image error e = feature_target - features (m,) [m on the sensor].

@@ -114,7 +114,7 @@ class HybridSwitched(Controller):
                 self._switches += 1
 
     def command(self, reading: JointReading | None) -> np.ndarray:
-        """The active law's twist [v; w] [m/s, rad/s]."""
+        """The active law's twist ``[v; w]`` [m/s, rad/s]."""
         return (self._ibvs if self._mode == 0 else self._pbvs).command(reading)
 
     def signals(self) -> dict[str, np.ndarray]:

@@ -43,7 +43,7 @@ __all__ = ["EyeInHand"]
 class EyeInHand:
     """Stereo camera on the flange of an arm, observing markers fixed in the base frame (Eq. 23-25).
 
-    Features are point-major, [u_l1, u_r1, v1, u_l2, ...] [m on the sensor] (Eq. 24).
+    Features are point-major, ``[u_l1, u_r1, v1, u_l2, ...]`` [m on the sensor] (Eq. 24).
 
     Args:
         arm: The arm: ``camera_pose(q)`` (T_O_C), ``camera_pose_and_jacobian(q)`` (with J_C, 6x6

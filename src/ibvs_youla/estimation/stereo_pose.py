@@ -195,7 +195,7 @@ def estimate_pose(
 
     Args:
         camera: The stereo camera.
-        features: Features (n, 3), rows [u_l, u_r, v] [m on the sensor], or flat (3n,).
+        features: Features (n, 3), rows ``[u_l, u_r, v]`` [m on the sensor], or flat (3n,).
         P_ref: The same points (n, 3), n >= 3, in the frame ref [m]; not coincident or collinear.
         allow_behind: Accept points behind the camera (negative disparity, ERRATA 13).
 

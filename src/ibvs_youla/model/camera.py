@@ -313,7 +313,7 @@ class StereoCamera(_Sensor):
         return cls(baseline=0.12, **_zed_intrinsics(preset, mode, frame_rate))
 
     def triangulate(self, features: object, allow_behind: bool = False) -> np.ndarray:
-        """Inverse stereo map M^-1 of Eq. (C6)-(C8): points (n, 3) [m] from rows [u_l, u_r, v] [m].
+        """Inverse stereo map M^-1 of Eq. (C6)-(C8): points (n, 3) [m] from rows ``[u_l, u_r, v]`` [m].
 
         Raises:
             InvalidDisparityError: disparity u_r - u_l <= 0 (unless allow_behind), and always when it
@@ -357,7 +357,7 @@ class PinholeCamera(_Sensor):
         )
 
     def back_project(self, features: object, Z: object, allow_behind: bool = False) -> np.ndarray:
-        """Points (n, 3) [m] from rows [u, v] [m] and depths Z (n,) or scalar [m]: X = u Z / F, Y = v Z / F.
+        """Points (n, 3) [m] from rows ``[u, v]`` [m], depths Z (n,) or scalar [m]: X = u Z / F, Y = v Z / F.
 
         Raises:
             PointBehindCameraError: as `project`.
@@ -414,7 +414,7 @@ def points_interaction_matrix(
 
 
 def triangulate_points(camera: StereoCamera, features: np.ndarray, allow_behind: bool) -> np.ndarray:
-    """Points (n, 3) [m] from stereo features (n, 3) [u_l, u_r, v] [m]: Eq. (C6)-(C8).
+    """Points (n, 3) [m] from stereo features (n, 3) ``[u_l, u_r, v]`` [m]: Eq. (C6)-(C8).
 
     ``camera.triangulate`` without the argument check: ``features`` must be a finite float (n, 3)
     array. The disparity is still checked (InvalidDisparityError, as ``camera.triangulate``).

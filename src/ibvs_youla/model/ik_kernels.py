@@ -24,7 +24,7 @@ _PI, _TAU = math.pi, math.tau
 
 
 def ik_parameter_array(params: SphericalWristParameters) -> np.ndarray:
-    """[d1, a1, a2, a3, d4, d6, L, beta, 2 a2 L, a2^2] [m, rad]: the lengths and the elbow constants."""
+    """``[d1, a1, a2, a3, d4, d6, L, beta, 2 a2 L, a2^2]`` [m, rad]: the lengths and the elbow constants."""
     L = math.hypot(params.a3, params.d4)
     return np.array(
         [

@@ -229,7 +229,8 @@ class ArmRk4:
     Args:
         arm: The arm (``damping``, ``pinocchio_model_data()``: Pinocchio's ABA includes the
             armature; the damping torque is applied here, as ``arm.aba`` does).
-        x_low, x_high: Bounds (2n,) of the packed state [q; dq] that :meth:`step` tests.
+        x_low: Lower bounds (2n,) of the packed state [q; dq] that :meth:`step` tests.
+        x_high: Upper bounds (2n,) of the same state.
         compiled_aba: Run the step as one compiled call with the compiled ABA when the arm's
             joints allow it (default); False: Pinocchio's ``pin.aba`` between compiled stages.
         viscous: Viscous friction b (n,) [N m s/rad], added to the damping; None: none.

@@ -267,6 +267,65 @@ def test_a_real_cluster_losing_a_worker_stores_every_row_once(tmp_path, referenc
     assert len(list((out / "series").glob("*.npz"))) == RUNS and not list((out / "series").glob(".*"))
 
 
+def test_a_stopped_worker_times_out_its_run_and_every_row_is_stored_once(tmp_path, reference, cluster):
+    """A worker stopped with SIGSTOP (a frozen node, a run stuck in a solver) holds its runs forever;
+    past the run timeout they run again on the other worker, so the campaign ends with every row once."""
+    address, _, workers = cluster
+    out = tmp_path / "stopped"
+    definition = CampaignDefinition(**DEFINITION)
+    outcome: list = []
+    with Client(address, timeout=10) as observer:
+        pids = observer.run(os.getpid)
+        thread = threading.Thread(
+            target=lambda: outcome.append(
+                run_campaign(
+                    definition, out, scheduler=address, progress=False, batch_rows=3, run_timeout=3.0
+                )
+            ),
+            daemon=True,
+        )
+        thread.start()
+        busy: list[str] = []
+
+        def a_worker_is_busy() -> bool:
+            busy[:] = [w for w, tasks in observer.processing().items() if tasks]
+            return bool(busy) or not thread.is_alive()
+
+        _wait_for(a_worker_is_busy, 30, "a worker running a task", poll=0.005)
+        assert busy, "the campaign ended before a worker could be stopped"
+        (victim,) = [w for w in workers if w.pid == pids[busy[0]]]
+        victim.send_signal(signal.SIGSTOP)
+        try:
+            t0 = time.monotonic()
+            thread.join(timeout=45)
+            assert not thread.is_alive(), "the campaign hangs on the stopped worker"
+            assert time.monotonic() - t0 < 45
+        finally:
+            victim.send_signal(signal.SIGCONT)
+            victim.kill()
+    (summary,) = outcome
+    rows = read_rows(out)
+    assert len(rows) == RUNS and not rows["key"].duplicated().any()
+    assert set(rows["outcome"]) <= {"reached", "timeout"} and summary.ran == RUNS
+    done = rows[rows["outcome"] == "reached"]
+    assert_same_rows_subset = done.set_index("key")["final_position_mm"]
+    expected = reference[1].set_index("key").loc[assert_same_rows_subset.index, "final_position_mm"]
+    np.testing.assert_allclose(assert_same_rows_subset, expected, rtol=1e-12)
+
+
+@pytest.mark.parametrize("value", [0.0, -1.0, math.nan, math.inf])
+def test_the_run_timeout_is_finite_and_positive(capsys, tmp_path, value):
+    with pytest.raises(InvalidParameterError, match="run_timeout"):
+        run_campaign(CampaignDefinition(**DEFINITION), tmp_path / "api", workers=0, run_timeout=value)
+    assert not (tmp_path / "api").exists()
+    for command in ("campaign", "robustness"):
+        argv = [command, "--family", "free-planar", "--cases", "1", "--run-timeout", str(value)]
+        argv += ["--axis", "noise"] if command == "robustness" else []
+        code, stdout, err = _cli(capsys, *argv, "--out", str(tmp_path / command))
+        assert code == 2 and stdout == "" and "--run-timeout" in _one_line(err)
+        assert not (tmp_path / command).exists()
+
+
 def test_a_lost_scheduler_is_one_line_and_keeps_the_rows(tmp_path, cluster, processes):
     address, scheduler, _ = cluster
     out = tmp_path / "lost"

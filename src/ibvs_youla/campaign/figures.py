@@ -62,6 +62,7 @@ _COLOURS = {
     "joint_limit": "tab:pink",
     "qp_infeasible": "tab:olive",
     "error": "tab:gray",
+    "timeout": "lightgray",
 }
 
 

@@ -3,6 +3,8 @@
 Outcome of a run (:data:`OUTCOMES`), the first that applies:
 
 1. ``"error"`` — the run raised (the message is in ``error``; set by :func:`~.run.run_spec`);
+   ``"timeout"`` — no worker returned the run within the campaign's run timeout, on two
+   workers (set by :mod:`~.runner`);
 2. the run stopped early: ``"diverged"``, ``"features_lost"`` (a marker left the true
    camera: status ``markers_lost``), ``"estimate_failed"``;
 3. ``"joint_limit"`` — on an arm, a true joint angle left the arm's limits at some sample (a
@@ -46,6 +48,7 @@ __all__ = [
     "SINGULAR_SIGMA",
     "error_row",
     "row_from_result",
+    "timeout_row",
 ]
 
 OUTCOMES = (
@@ -59,6 +62,7 @@ OUTCOMES = (
     "joint_limit",
     "qp_infeasible",
     "error",
+    "timeout",
 )
 REACHED_MM = 1.0  # [mm]
 REACHED_DEG = 0.1  # [deg]
@@ -126,6 +130,14 @@ def error_row(spec: Any, error: BaseException, wall_s: float = math.nan) -> dict
     row = {name: (math.nan if kind is float else 0 if kind is int else "") for name, kind in COLUMNS.items()}
     row.update(_base(spec, wall_s))
     row.update(outcome="error", status="error", error=f"{type(error).__name__}: {error}"[:2000])
+    return row
+
+
+def timeout_row(spec: Any, message: str, wall_s: float = math.nan) -> dict[str, Any]:
+    """The row of a run no worker returned within the campaign's run timeout, twice: outcome ``"timeout"``."""
+    row = {name: (math.nan if kind is float else 0 if kind is int else "") for name, kind in COLUMNS.items()}
+    row.update(_base(spec, wall_s))
+    row.update(outcome="timeout", status="timeout", error=message[:2000])
     return row
 
 

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .._validation import positive
 from ..exceptions import IbvsYoulaError, InvalidParameterError
 from .definition import CampaignDefinition
 from .robustness_axes import AXES, Axis, value_label
@@ -203,6 +204,7 @@ def run_study(
     workers: int | None = None,
     progress: bool = True,
     on_campaign: Callable[[float, Any], None] | None = None,
+    run_timeout: float = 600.0,
 ) -> list[tuple[float, Any]]:
     """Run every value's campaign not yet complete in ``out_dir`` (module docstring).
 
@@ -214,6 +216,7 @@ def run_study(
             0 runs in this process. Not with ``scheduler``.
         progress: A progress bar per campaign.
         on_campaign: Called with (value, CampaignSummary) after each campaign.
+        run_timeout: Longest run on a worker [s] (``run_campaign``'s).
 
     Returns:
         (value, :class:`~.runner.CampaignSummary`) per value.
@@ -226,6 +229,7 @@ def run_study(
 
     if scheduler is not None and workers is not None:
         raise InvalidParameterError("workers", workers, "None with a scheduler (its workers run the tasks)")
+    run_timeout = positive(run_timeout, "run_timeout", unit="s")
     path = Path(out_dir)
     check_study_folder(path, study)  # before any cluster or file
     cluster = None
@@ -247,6 +251,7 @@ def run_study(
                 scheduler=scheduler,
                 workers=0 if workers == 0 else None,
                 progress=progress,
+                run_timeout=run_timeout,
             )
             summaries.append((value, summary))
             if on_campaign is not None:

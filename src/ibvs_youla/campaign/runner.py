@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .._validation import positive
 from ..exceptions import IbvsYoulaError, InvalidParameterError
 from .definition import FAMILY_DEFAULTS, CampaignDefinition
 from .spec import ExperimentSpec
@@ -62,6 +63,8 @@ _LOG = logging.getLogger(__name__)
 CONNECT_TIMEOUT_S = 10.0  # to reach an existing scheduler [s]
 TASKS_PER_THREAD = 4  # tasks in flight per worker thread (at least MIN_WINDOW in all)
 MIN_WINDOW = 32
+RUN_TIMEOUT_S = 600.0  # default longest run on a worker [s]: a normal run takes seconds
+LATE_S = 60.0  # a run running longer than this (or half the run timeout) shows as late [s]
 
 
 class SchedulerError(IbvsYoulaError):
@@ -131,6 +134,7 @@ def run_campaign(
     series: bool = False,
     batch_rows: int = 20,
     batch_seconds: float = 10.0,
+    run_timeout: float = RUN_TIMEOUT_S,
 ) -> CampaignSummary:
     """Run the runs of ``definition`` not yet stored in ``out_dir`` (module docstring).
 
@@ -146,6 +150,10 @@ def run_campaign(
             client writes it). Runs already stored are not rerun for their series.
         batch_rows: Rows per Parquet part.
         batch_seconds: Longest time a finished row waits before it is written [s].
+        run_timeout: Longest time a run may take on a Dask worker (finite, > 0) [s]: a run
+            running longer is submitted again on another worker, and stored as a
+            ``"timeout"`` row if that copy runs longer too; the first copy to return is
+            stored, a later one dropped. Runs in this process (``workers=0``) are not timed.
 
     Returns:
         The summary; every stored row reads with ``pandas.read_parquet(out_dir + "/rows")``.
@@ -163,6 +171,7 @@ def run_campaign(
         raise InvalidParameterError("workers", workers, "None with a scheduler (its workers run the tasks)")
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
         raise InvalidParameterError("workers", workers, "an integer >= 0")
+    run_timeout = positive(run_timeout, "run_timeout", unit="s")
     path = Path(out_dir)
     record = definition.to_dict()
     storage.check_folder(path, record)  # reads only: refuse before connecting or writing
@@ -194,7 +203,9 @@ def run_campaign(
                     if client is None:
                         _run_here(pending, writer, summary, bar, path, series, terminated)
                     else:
-                        _run_dask(client, pending, writer, summary, bar, path, series, terminated)
+                        _run_dask(
+                            client, pending, writer, summary, bar, path, series, terminated, run_timeout
+                        )
                 finally:
                     writer.flush()
                     summary.ran = writer.written
@@ -370,13 +381,14 @@ def _run_dask(
     path: Path,
     series: bool,
     terminated: threading.Event,
+    run_timeout: float = RUN_TIMEOUT_S,
 ) -> None:
     from concurrent.futures import CancelledError
 
     from distributed.comm import CommClosedError
 
     try:
-        _collect(client, pending, writer, summary, bar, path, series, terminated)
+        _collect(client, pending, writer, summary, bar, path, series, terminated, run_timeout)
     except (CancelledError, CommClosedError):  # the scheduler, or the connection to it, is gone
         raise SchedulerError(
             str(client.scheduler.address),
@@ -394,13 +406,14 @@ def _collect(
     path: Path,
     series: bool,
     terminated: threading.Event,
+    run_timeout: float = RUN_TIMEOUT_S,
 ) -> None:
     from concurrent.futures import CancelledError
 
     from distributed import wait
     from distributed.scheduler import KilledWorker
 
-    from .metrics import error_row
+    from .metrics import error_row, timeout_row
     from .run import run_spec, run_spec_with_result
 
     function = run_spec_with_result if series else run_spec
@@ -408,39 +421,57 @@ def _collect(
     suspects: list[ExperimentSpec] = []  # killed a worker together with others: rerun alone
     convicted: set[str] = set()  # killed a worker while running alone
     in_flight: dict[Any, ExperimentSpec] = {}
+    stale: dict[Any, ExperimentSpec] = {}  # copies on a hung worker: stored if first back, else dropped
+    stored: set[str] = set()  # keys stored by this call: a later copy of the same run is dropped
+    clock = _RunClock(run_timeout)
     window = _window(client)
+
+    def submit(specs: list[ExperimentSpec], retries: int) -> None:
+        extra = clock.placement(client)
+        futures = client.map(function, [s.to_json() for s in specs], pure=False, retries=retries, **extra)
+        in_flight.update(zip(futures, specs, strict=True))
+
+    def keep(spec: ExperimentSpec, row: dict[str, Any], result: Any) -> None:
+        if spec.key in stored:  # a late copy of a run already stored
+            return
+        stored.add(spec.key)
+        _store(row, result, writer, summary, bar, path)
+        for other in [f for f, s in (*in_flight.items(), *stale.items()) if s.key == spec.key]:
+            in_flight.pop(other, None)
+            stale.pop(other, None)
+            other.release()
+
     while queue or in_flight or suspects:
         _stop_if(terminated)
         if queue and len(in_flight) < window:
-            chunk = [queue.pop() for _ in range(min(window - len(in_flight), len(queue)))]
-            futures = client.map(function, [s.to_json() for s in chunk], pure=False, retries=2)
-            in_flight.update(zip(futures, chunk, strict=True))
+            submit([queue.pop() for _ in range(min(window - len(in_flight), len(queue)))], 2)
         elif not queue and not in_flight and suspects:  # alone on the cluster, after every other run
             spec = suspects.pop(0)
+            if spec.key in stored:
+                continue
             convicted.add(spec.key)  # a death from now on is its own
-            (future,) = client.map(function, [spec.to_json()], pure=False, retries=0)
-            in_flight[future] = spec
+            submit([spec], 0)
         due = writer.seconds_until_due()
+        poll = clock.poll_s if due is None else min(max(due, 0.01), clock.poll_s)
         try:
-            finished, _ = wait(
-                list(in_flight),
-                timeout=None if due is None else max(due, 0.01),
-                return_when="FIRST_COMPLETED",
-            )
+            finished, _ = wait([*in_flight, *stale], timeout=poll, return_when="FIRST_COMPLETED")
         except TimeoutError:
-            writer.flush()
-            continue
+            finished = set()
         for future in finished:
             if future.status in ("lost", "pending"):  # its result died with a worker: recomputed
                 continue
-            spec = in_flight.pop(future)
+            spec = in_flight.pop(future, None) or stale.pop(future, None)
+            if spec is None:  # released above, as a copy of a stored run
+                continue
             if future.status == "finished":
                 value = future.result()
                 row, result = value if series else (value, None)
-                _store(row, result, writer, summary, bar, path)
+                keep(spec, row, result)
+            elif spec.key in stored or any(s.key == spec.key for s in in_flight.values()):
+                pass  # another copy of the run is stored or still running
             elif future.status == "error" and isinstance(future.exception(), KilledWorker):
                 if spec.key in convicted:
-                    _store(error_row(spec, future.exception()), None, writer, summary, bar, path)
+                    keep(spec, error_row(spec, future.exception()), None)
                 else:  # the scheduler blames every run that was on the dying workers: retry it alone
                     suspects.append(spec)
             elif future.status == "error":
@@ -451,9 +482,116 @@ def _collect(
             else:
                 raise CancelledError(future.key)
             future.release()
+        for future, worker, age in clock.overdue(client, in_flight):
+            spec = in_flight.pop(future)
+            stale[future] = spec
+            if clock.attempts[spec.key] >= 2 or not clock.healthy(client):
+                message = f"timed out: no result after {age:.0f} s on {clock.tried(spec.key)}"
+                _LOG.warning("ibvs-youla: run %s %s; stored as a timeout", spec.key, message)
+                keep(spec, timeout_row(spec, message, age), None)
+            else:
+                _LOG.warning(
+                    "ibvs-youla: run %s took more than %g s on %s; running it again on another worker",
+                    spec.key,
+                    run_timeout,
+                    worker,
+                )
+                submit([spec], 2)
+        for future, spec in clock.stuck_behind(client, in_flight):  # waiting on a hung worker: move it
+            in_flight.pop(future)
+            stale[future] = spec
+            submit([spec], 2)
+        late = clock.late(in_flight)
+        bar.set_postfix(errors=summary.errors, refresh=False)
+        if late:
+            bar.set_description(f"campaign ({late} runs late, > {clock.late_s:g} s)", refresh=False)
+        else:
+            bar.set_description("campaign", refresh=False)
         if writer.seconds_until_due() == 0.0:
             writer.flush()
             window = _window(client)
+    for future in stale:  # copies on hung workers of runs stored since
+        future.release()
+
+
+class _RunClock:
+    """How long each run has been running on its worker, from what the scheduler says it processes.
+
+    A worker of ``k`` threads runs the ``k`` runs it received first; a run's clock starts when it
+    is one of those (a run queued behind others on a worker is not timed). A worker with a run
+    past the timeout is hung: later runs avoid it, and the runs queued on it move elsewhere.
+    """
+
+    def __init__(self, run_timeout: float) -> None:
+        self.run_timeout = run_timeout
+        self.late_s = min(LATE_S, run_timeout / 2.0)
+        self.poll_s = min(2.0, max(0.05, run_timeout / 10.0))
+        self.hung: set[str] = set()
+        self.attempts: Counter[str] = Counter()
+        self._workers: dict[str, list[str]] = {}  # spec key -> workers it timed out on
+        self._seen: dict[Any, tuple[str, float]] = {}  # future key -> (worker, first seen there)
+        self._started: dict[Any, float] = {}  # future key -> when it became one of the worker's first k
+        self._last_poll = -math.inf
+        self._processing: dict[str, list[Any]] = {}
+
+    def _poll(self, client: Any, in_flight: dict[Any, ExperimentSpec]) -> None:
+        now = time.monotonic()
+        if now - self._last_poll < self.poll_s:
+            return
+        self._last_poll = now
+        try:
+            processing = {w: list(keys) for w, keys in client.processing().items()}
+        except Exception:  # the scheduler is gone, or a client without it: nothing timed
+            processing = {}
+        threads = _nthreads(client)
+        order = {f.key: n for n, f in enumerate(in_flight)}
+        seen, started = {}, {}
+        for worker, keys in processing.items():
+            mine = [k for k in keys if k in order]
+            for key in mine:
+                old = self._seen.get(key)
+                seen[key] = old if old is not None and old[0] == worker else (worker, now)
+            mine.sort(key=lambda k: (seen[k][1], order[k]))
+            for key in mine[: max(1, threads.get(worker, 1))]:
+                same = self._seen.get(key, (None,))[0] == worker
+                started[key] = self._started.get(key, now) if same else now
+        self._seen, self._started, self._processing = seen, started, processing
+
+    def overdue(self, client: Any, in_flight: dict[Any, ExperimentSpec]) -> list[tuple[Any, str, float]]:
+        """The runs past the timeout (each counted once: the caller moves them out of ``in_flight``)."""
+        self._poll(client, in_flight)
+        now, found = time.monotonic(), []
+        for future, spec in in_flight.items():
+            started = self._started.get(future.key)
+            if started is not None and now - started > self.run_timeout:
+                worker = self._seen[future.key][0]
+                self.hung.add(worker)
+                self.attempts[spec.key] += 1
+                self._workers.setdefault(spec.key, []).append(worker)
+                found.append((future, worker, now - started))
+        return found
+
+    def stuck_behind(self, client: Any, in_flight: dict[Any, ExperimentSpec]) -> list[tuple[Any, Any]]:
+        """The runs queued on a hung worker (not timed there: they wait behind the hung run)."""
+        return [
+            (f, s) for f, s in in_flight.items() if f.key in self._seen and self._seen[f.key][0] in self.hung
+        ]
+
+    def late(self, in_flight: dict[Any, ExperimentSpec]) -> int:
+        now = time.monotonic()
+        return sum(now - self._started.get(f.key, now) > self.late_s for f in in_flight)
+
+    def healthy(self, client: Any) -> list[str]:
+        return [w for w in _nthreads(client) if w not in self.hung]
+
+    def tried(self, key: str) -> str:
+        return " then ".join(self._workers.get(key, [])) or "its workers"
+
+    def placement(self, client: Any) -> dict[str, Any]:
+        """``client.map`` keywords that keep new runs off hung workers (none while no worker hangs)."""
+        if not self.hung:
+            return {}
+        return {"workers": self.healthy(client) or None, "allow_other_workers": False}
 
 
 def _window(client: Any) -> int:

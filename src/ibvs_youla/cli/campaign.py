@@ -123,6 +123,7 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
             progress=not args.no_progress,
             series=args.series,
             batch_rows=args.batch_rows,
+            run_timeout=args.run_timeout,
         )
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the returned rows were flushed
         stored = len(read_rows(args.out)) if (args.out / "rows").is_dir() else 0

@@ -328,6 +328,14 @@ def _add_campaign(sub: Any) -> None:
         metavar="N",
         help="rows per Parquet file; finished rows wait at most 10 s (default 20)",
     )
+    p.add_argument(
+        "--run-timeout",
+        type=_positive,
+        default=600.0,
+        metavar="S",
+        help="longest run on a worker [s]: then run again elsewhere, and stored as a timeout if late again "
+        "(default 600)",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=campaign.run)
 

@@ -107,6 +107,14 @@ def configure(parser: argparse.ArgumentParser, positive: Any) -> None:
         metavar="K",
         help="processes of the local cluster (default: one per core; 0 runs in this process)",
     )
+    parser.add_argument(
+        "--run-timeout",
+        type=positive,
+        default=600.0,
+        metavar="S",
+        help="longest run on a worker [s]: then run again elsewhere, and stored as a timeout if late again "
+        "(default 600)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
     parser.set_defaults(func=run)
 
@@ -167,6 +175,7 @@ def run(args: argparse.Namespace, extra: list[str] | None = None) -> int:
             workers=args.workers,
             progress=not args.no_progress,
             on_campaign=done,
+            run_timeout=args.run_timeout,
         )
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted; rerun the same command to resume", file=sys.stderr)

@@ -16,6 +16,7 @@ from typing import Any
 __all__ = [
     "CalibrationError",
     "ConfigError",
+    "ControllerError",
     "DamagedFileError",
     "DegenerateMarkersError",
     "FolderLockedError",
@@ -248,6 +249,25 @@ class SimulationDivergedError(IbvsYoulaError):
         self.bound = bound
         self.partial = partial
         super().__init__(message)
+
+
+class ControllerError(IbvsYoulaError):
+    """A controller's method raised, or returned what the servo loop cannot use.
+
+    Attributes:
+        controller: The controller's class name.
+        method: The method at fault, e.g. ``"command"``.
+        time: Simulated time of the tick [s].
+        partial: The samples recorded until then (a result with status ``"controller_failed"``
+            when the loop could attach one), or None.
+    """
+
+    def __init__(self, controller: str, method: str, time: float, message: str, partial: Any = None) -> None:
+        self.controller = controller
+        self.method = method
+        self.time = time
+        self.partial = partial
+        super().__init__(f"{controller}.{method}() at t = {time:.6g} s: {message}")
 
 
 class PoseEstimationError(IbvsYoulaError):

@@ -37,6 +37,7 @@ import numpy as np
 
 from ..controllers.base import CommandType, Controller
 from ..exceptions import (
+    ControllerError,
     InvalidDisparityError,
     InvalidParameterError,
     PointBehindCameraError,
@@ -98,6 +99,12 @@ class ServoLoop:
                 status="diverged", extra_metadata={"error": str(err), "phase_seconds": self.phase_seconds}
             )
             raise
+        except ControllerError as err:
+            err.partial = self.recorder.result(
+                status="controller_failed",
+                extra_metadata={"error": str(err), "phase_seconds": self.phase_seconds},
+            )
+            raise
         except KeyboardInterrupt as err:  # Ctrl-C: keep what was recorded, then stop as asked
             err.partial = self.recorder.result(  # type: ignore[attr-defined]
                 status="interrupted",
@@ -124,6 +131,11 @@ class ServoLoop:
                 f"a finite ({n},) array: a {command_type.value} [{command_type.unit}]",
             )
         return arr
+
+    def _failed(self, method: str, t: float, err: BaseException) -> ControllerError:
+        """The typed error for a controller method that raised ``err`` at time ``t``."""
+        name = type(getattr(self.controller, "controller", self.controller)).__name__  # a wrapper's inner one
+        return ControllerError(name, method, t, f"raised {type(err).__name__}: {err}")
 
     def _ticks(self, bar: Any) -> str:
         controller, sensor, plant, chain, dt = self.controller, self.sensor, self.plant, self.chain, self.dt
@@ -160,10 +172,15 @@ class ServoLoop:
                         # IK branch within the joint limits, or a belief puts a marker behind the camera)
                         self._reason = f"t = {t:.6g} s: {type(controller).__name__}'s estimate failed: {err}"
                         return "estimate_failed"
+                    except Exception as err:  # a user's bug: typed, named, with the samples so far
+                        raise self._failed("update", t, err) from err
                     elapsed = clock() - tic
                     record_frame(t, frame.features, frame.visible, elapsed)
                 t_frame = clock()
-                command = controller.command(reading)
+                try:
+                    command = controller.command(reading)
+                except Exception as err:
+                    raise self._failed("command", t, err) from err
                 if k == 0:
                     command = self._checked_command(command)
                 commands = [command]
@@ -171,7 +188,10 @@ class ServoLoop:
                     command = adapter(command, reading)
                     commands.append(command)
                 if k % record_every == 0 or k == n_ticks:
-                    declared = controller.signals()
+                    try:
+                        declared = controller.signals()
+                    except Exception as err:
+                        raise self._failed("signals", t, err) from err
                     if tuple(declared) != declared_names:  # same names, same order as declared first
                         raise InvalidParameterError(
                             "controller.signals()",

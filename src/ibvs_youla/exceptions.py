@@ -23,6 +23,7 @@ __all__ = [
     "IbvsYoulaError",
     "IncompatibleCommandError",
     "InvalidArrayError",
+    "InvalidCommandError",
     "InvalidDisparityError",
     "InvalidParameterError",
     "JointLimitError",
@@ -267,7 +268,21 @@ class ControllerError(IbvsYoulaError):
         self.method = method
         self.time = time
         self.partial = partial
-        super().__init__(f"{controller}.{method}() at t = {time:.6g} s: {message}")
+        Exception.__init__(self, f"{controller}.{method}() at t = {time:.6g} s: {message}")
+
+
+class InvalidCommandError(ControllerError, InvalidParameterError):
+    """A controller's command is not an array of its command type's shape (or, first, not finite).
+
+    Attributes are those of :class:`ControllerError`, plus ``name``, ``value`` (what was received)
+    and ``valid`` of :class:`InvalidParameterError`, so code catching that keeps working.
+    """
+
+    def __init__(self, controller: str, time: float, value: Any, valid: str) -> None:
+        self.name, self.value, self.valid = f"{controller}.command()", value, valid
+        ControllerError.__init__(
+            self, controller, "command", time, f"received {value}; valid values are {valid}"
+        )
 
 
 class PoseEstimationError(IbvsYoulaError):

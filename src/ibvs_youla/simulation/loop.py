@@ -38,6 +38,7 @@ import numpy as np
 from ..controllers.base import CommandType, Controller
 from ..exceptions import (
     ControllerError,
+    InvalidCommandError,
     InvalidDisparityError,
     InvalidParameterError,
     PointBehindCameraError,
@@ -119,14 +120,15 @@ class ServoLoop:
             extra["error"] = self._reason
         return self.recorder.result(status=status, extra_metadata=extra)
 
-    def _checked_command(self, command: Any) -> np.ndarray:
-        """The first command, checked once: a finite float array of the command type's shape."""
+    def _checked_command(self, command: Any, t: float, finite: bool) -> np.ndarray:
+        """A command that is not a float array of the command type's shape (the first: finite too)."""
         command_type = self.controller.command_type
         n = 6 if command_type is CommandType.CAMERA_TWIST else getattr(self.plant, "n_joints", 6)
         arr = np.asarray(command, dtype=float) if isinstance(command, (np.ndarray, list, tuple)) else None
-        if arr is None or arr.shape != (n,) or not np.all(np.isfinite(arr)):
-            raise InvalidParameterError(
-                f"{type(self.controller).__name__}.command()",
+        if arr is None or arr.shape != (n,) or (finite and not np.all(np.isfinite(arr))):
+            raise InvalidCommandError(
+                type(getattr(self.controller, "controller", self.controller)).__name__,
+                t,
                 repr(command) if arr is None else f"an array of shape {arr.shape} {arr.tolist()}",
                 f"a finite ({n},) array: a {command_type.value} [{command_type.unit}]",
             )
@@ -145,6 +147,7 @@ class ServoLoop:
         declared_names = self.recorder.signal_names[-n_declared:] if n_declared else ()
         clock = time.perf_counter
         frame = None
+        shape: tuple[int, ...] = ()  # the command's, set by the first tick's check
         frame_s = control_s = plant_s = 0.0  # phase times [s], summed over the run
         t_tick = clock()
         try:
@@ -181,8 +184,9 @@ class ServoLoop:
                     command = controller.command(reading)
                 except Exception as err:
                     raise self._failed("command", t, err) from err
-                if k == 0:
-                    command = self._checked_command(command)
+                if k == 0 or type(command) is not np.ndarray or command.shape != shape:  # cheap, every tick
+                    command = self._checked_command(command, t, k == 0)
+                    shape = command.shape
                 commands = [command]
                 for adapter in chain:
                     command = adapter(command, reading)

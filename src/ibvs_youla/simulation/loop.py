@@ -18,8 +18,10 @@ within the joint limits reaches the pose seen, Eq. (62), a PnP finds no pose, or
 marker lies behind the camera). A diverging plant raises
 :class:`~ibvs_youla.exceptions.SimulationDivergedError`, and Ctrl-C a ``KeyboardInterrupt``,
 each with the samples recorded so far in ``error.partial`` (status ``"diverged"``,
-``"interrupted"``). The first command is checked (a finite array of the command type's
-shape); later ones are left to the plant's divergence test.
+``"interrupted"``). A controller method that raises, or a command that is not an array of the
+command type's shape (checked cheaply every tick; the first one must also be finite), raises
+:class:`~ibvs_youla.exceptions.ControllerError` with ``error.partial`` (status
+``"controller_failed"``); later commands' values are left to the plant's divergence test.
 
 The loop times its phases (wall clock, summed over the run) and stores them in
 ``metadata["phase_seconds"]``: ``frame`` (the encoder reading, the true camera pose, the

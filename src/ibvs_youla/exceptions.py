@@ -16,12 +16,14 @@ from typing import Any
 __all__ = [
     "CalibrationError",
     "ConfigError",
+    "ControllerError",
     "DamagedFileError",
     "DegenerateMarkersError",
     "FolderLockedError",
     "IbvsYoulaError",
     "IncompatibleCommandError",
     "InvalidArrayError",
+    "InvalidCommandError",
     "InvalidDisparityError",
     "InvalidParameterError",
     "JointLimitError",
@@ -248,6 +250,39 @@ class SimulationDivergedError(IbvsYoulaError):
         self.bound = bound
         self.partial = partial
         super().__init__(message)
+
+
+class ControllerError(IbvsYoulaError):
+    """A controller's method raised, or returned what the servo loop cannot use.
+
+    Attributes:
+        controller: The controller's class name.
+        method: The method at fault, e.g. ``"command"``.
+        time: Simulated time of the tick [s].
+        partial: The samples recorded until then (a result with status ``"controller_failed"``
+            when the loop could attach one), or None.
+    """
+
+    def __init__(self, controller: str, method: str, time: float, message: str, partial: Any = None) -> None:
+        self.controller = controller
+        self.method = method
+        self.time = time
+        self.partial = partial
+        Exception.__init__(self, f"{controller}.{method}() at t = {time:.6g} s: {message}")
+
+
+class InvalidCommandError(ControllerError, InvalidParameterError):
+    """A controller's command is not an array of its command type's shape (or, first, not finite).
+
+    Attributes are those of :class:`ControllerError`, plus ``name``, ``value`` (what was received)
+    and ``valid`` of :class:`InvalidParameterError`, so code catching that keeps working.
+    """
+
+    def __init__(self, controller: str, time: float, value: Any, valid: str) -> None:
+        self.name, self.value, self.valid = f"{controller}.command()", value, valid
+        ControllerError.__init__(
+            self, controller, "command", time, f"received {value}; valid values are {valid}"
+        )
 
 
 class PoseEstimationError(IbvsYoulaError):

@@ -18,8 +18,10 @@ within the joint limits reaches the pose seen, Eq. (62), a PnP finds no pose, or
 marker lies behind the camera). A diverging plant raises
 :class:`~ibvs_youla.exceptions.SimulationDivergedError`, and Ctrl-C a ``KeyboardInterrupt``,
 each with the samples recorded so far in ``error.partial`` (status ``"diverged"``,
-``"interrupted"``). The first command is checked (a finite array of the command type's
-shape); later ones are left to the plant's divergence test.
+``"interrupted"``). A controller method that raises, or a command that is not an array of the
+command type's shape (checked cheaply every tick; the first one must also be finite), raises
+:class:`~ibvs_youla.exceptions.ControllerError` with ``error.partial`` (status
+``"controller_failed"``); later commands' values are left to the plant's divergence test.
 
 The loop times its phases (wall clock, summed over the run) and stores them in
 ``metadata["phase_seconds"]``: ``frame`` (the encoder reading, the true camera pose, the
@@ -37,6 +39,8 @@ import numpy as np
 
 from ..controllers.base import CommandType, Controller
 from ..exceptions import (
+    ControllerError,
+    InvalidCommandError,
     InvalidDisparityError,
     InvalidParameterError,
     PointBehindCameraError,
@@ -98,6 +102,12 @@ class ServoLoop:
                 status="diverged", extra_metadata={"error": str(err), "phase_seconds": self.phase_seconds}
             )
             raise
+        except ControllerError as err:
+            err.partial = self.recorder.result(
+                status="controller_failed",
+                extra_metadata={"error": str(err), "phase_seconds": self.phase_seconds},
+            )
+            raise
         except KeyboardInterrupt as err:  # Ctrl-C: keep what was recorded, then stop as asked
             err.partial = self.recorder.result(  # type: ignore[attr-defined]
                 status="interrupted",
@@ -112,18 +122,24 @@ class ServoLoop:
             extra["error"] = self._reason
         return self.recorder.result(status=status, extra_metadata=extra)
 
-    def _checked_command(self, command: Any) -> np.ndarray:
-        """The first command, checked once: a finite float array of the command type's shape."""
+    def _checked_command(self, command: Any, t: float, finite: bool) -> np.ndarray:
+        """A command that is not a float array of the command type's shape (the first: finite too)."""
         command_type = self.controller.command_type
         n = 6 if command_type is CommandType.CAMERA_TWIST else getattr(self.plant, "n_joints", 6)
         arr = np.asarray(command, dtype=float) if isinstance(command, (np.ndarray, list, tuple)) else None
-        if arr is None or arr.shape != (n,) or not np.all(np.isfinite(arr)):
-            raise InvalidParameterError(
-                f"{type(self.controller).__name__}.command()",
+        if arr is None or arr.shape != (n,) or (finite and not np.all(np.isfinite(arr))):
+            raise InvalidCommandError(
+                type(getattr(self.controller, "controller", self.controller)).__name__,
+                t,
                 repr(command) if arr is None else f"an array of shape {arr.shape} {arr.tolist()}",
                 f"a finite ({n},) array: a {command_type.value} [{command_type.unit}]",
             )
         return arr
+
+    def _failed(self, method: str, t: float, err: BaseException) -> ControllerError:
+        """The typed error for a controller method that raised ``err`` at time ``t``."""
+        name = type(getattr(self.controller, "controller", self.controller)).__name__  # a wrapper's inner one
+        return ControllerError(name, method, t, f"raised {type(err).__name__}: {err}")
 
     def _ticks(self, bar: Any) -> str:
         controller, sensor, plant, chain, dt = self.controller, self.sensor, self.plant, self.chain, self.dt
@@ -133,6 +149,7 @@ class ServoLoop:
         declared_names = self.recorder.signal_names[-n_declared:] if n_declared else ()
         clock = time.perf_counter
         frame = None
+        shape: tuple[int, ...] = ()  # the command's, set by the first tick's check
         frame_s = control_s = plant_s = 0.0  # phase times [s], summed over the run
         t_tick = clock()
         try:
@@ -160,18 +177,27 @@ class ServoLoop:
                         # IK branch within the joint limits, or a belief puts a marker behind the camera)
                         self._reason = f"t = {t:.6g} s: {type(controller).__name__}'s estimate failed: {err}"
                         return "estimate_failed"
+                    except Exception as err:  # a user's bug: typed, named, with the samples so far
+                        raise self._failed("update", t, err) from err
                     elapsed = clock() - tic
                     record_frame(t, frame.features, frame.visible, elapsed)
                 t_frame = clock()
-                command = controller.command(reading)
-                if k == 0:
-                    command = self._checked_command(command)
+                try:
+                    command = controller.command(reading)
+                except Exception as err:
+                    raise self._failed("command", t, err) from err
+                if k == 0 or type(command) is not np.ndarray or command.shape != shape:  # cheap, every tick
+                    command = self._checked_command(command, t, k == 0)
+                    shape = command.shape
                 commands = [command]
                 for adapter in chain:
                     command = adapter(command, reading)
                     commands.append(command)
                 if k % record_every == 0 or k == n_ticks:
-                    declared = controller.signals()
+                    try:
+                        declared = controller.signals()
+                    except Exception as err:
+                        raise self._failed("signals", t, err) from err
                     if tuple(declared) != declared_names:  # same names, same order as declared first
                         raise InvalidParameterError(
                             "controller.signals()",

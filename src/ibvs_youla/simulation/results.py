@@ -27,7 +27,7 @@ from ..files import atomic_write
 __all__ = ["STATUSES", "SimulationResult", "normalise_metadata", "software_versions"]
 
 FORMAT_VERSION = 2  # 1: fixed three-marker stereo schema with q_ff/q_fb fields (still loads)
-STATUSES = ("complete", "markers_lost", "estimate_failed", "diverged", "interrupted")
+STATUSES = ("complete", "markers_lost", "estimate_failed", "diverged", "interrupted", "controller_failed")
 _LEGACY_SIGNALS = ("q", "q_true", "dq", "q_ref", "q_ff", "q_fb", "tau")  # format 1's joint signals
 _SIGNAL_PREFIX = "signal/"
 _ZIP_MAGIC = b"PK\x03\x04"  # every .npz archive starts with a zip local file header

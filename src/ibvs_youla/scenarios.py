@@ -376,7 +376,7 @@ def get(name: str) -> Scenario:
 
 # ----------------------------------------------------------------------------- a textured plane
 TEXTURED_DEPTH_M = 1.0  # [m] the plane's distance from the target camera (ViSP's photometric example)
-TEXTURED_SQUARE_M = 0.15  # [m] side of the square of markers on the plane, centred on the optical axis
+TEXTURED_SQUARE_M = 0.1  # [m] side of the square of markers on the plane, centred on the optical axis
 # The default start of textured_plane(), in the target camera's frame: a few centimetres and degrees,
 # the style of start of Collewet & Marchand's experiments: (tx, ty, tz) [m], rotation vector [deg].
 TEXTURED_START = ((0.03, -0.02, 0.05), (2.0, -2.0, 3.0))
@@ -407,7 +407,7 @@ def textured_plane(
     ``photometricVisualServoing`` geometry); the start is the target camera moved by
     ``translation_m`` (tx, ty, tz) [m] and turned by the rotation vector ``rotation_deg`` [deg],
     both in the target camera's frame: ``T_O_C0 = T_O_C* [R(rotation), t]``. The markers are the
-    corners of a 0.15 m square centred on the plane (what point methods servo on, and what the
+    corners of a 0.1 m square centred on the plane (what point methods servo on, and what the
     comparison metrics measure); the scene defaults to ``TexturedPlane()`` (0.6 x 0.45 m, a
     generated texture, seed 0). Image it with :func:`textured_camera`.
 

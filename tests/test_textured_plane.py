@@ -11,7 +11,7 @@ from ibvs_youla.exceptions import InvalidArrayError, InvalidParameterError
 from ibvs_youla.model.camera import PinholeCamera, StereoCamera, pixel_centres_normalized
 from ibvs_youla.model.textured_plane import TexturedPlane, generated_texture
 
-CAMERA = scenarios.textured_camera()  # 80 x 60 px, 217.5 px focal length
+CAMERA = scenarios.textured_camera()  # 120 x 90 px, 150 px focal length
 
 
 def _tilted_pose():
@@ -64,7 +64,7 @@ def test_the_image_is_the_texture_at_each_pixels_ray():
     a, b = P_P[..., 0] / plane.texel_m + cols / 2, P_P[..., 1] / plane.texel_m + rows / 2  # (T1)
     expected = _bilinear(plane.texture_grey, a, b, 17.0)
     image = plane.render(CAMERA, T)
-    assert image.shape == (60, 80) and image.dtype == np.float32
+    assert image.shape == (90, 120) and image.dtype == np.float32
     steepest = max(np.abs(np.diff(plane.texture_grey, axis=k)).max() for k in (0, 1))  # [grey / texel]
     assert np.abs(image - expected).max() <= steepest / 32.0
 
@@ -72,11 +72,15 @@ def test_the_image_is_the_texture_at_each_pixels_ray():
 def test_outside_the_texture_behind_the_plane_and_away_from_it_the_image_is_background():
     plane = TexturedPlane(background_grey=17.0)
     T = np.eye(4)
-    T[:3, 3] = (0.3, 0.0, -1.0)  # over the texture's right edge (x = 0.3 m): half the view off it
+    T[:3, 3] = (0.6, 0.0, -1.0)  # over the texture's right edge (x = 0.6 m): half the view off it
     image = plane.render(CAMERA, T)
     P_P, _ = _rays_on_plane(CAMERA, plane, T)
-    off = np.abs(P_P[..., 0]) > 0.3 + plane.texel_m  # beyond the texture (and its interpolation band)
-    assert off.any() and (~off).any() and np.all(image[off] == 17.0) and np.all(image[~off] != 17.0)
+    # bilinear interpolation blends the background in over half a texel on either side of the edge
+    off, on = (
+        (np.abs(P_P[..., 0]) - 0.6 > 0.5 * plane.texel_m),
+        (0.6 - np.abs(P_P[..., 0]) > 0.5 * plane.texel_m),
+    )
+    assert off.any() and on.any() and np.all(image[off] == 17.0) and np.all(image[on] != 17.0)
     behind = np.eye(4)
     behind[2, 3] = 1.0  # on the +z_P side: the back of the plane, untextured
     assert np.all(plane.render(CAMERA, behind) == 17.0)

@@ -376,21 +376,24 @@ def get(name: str) -> Scenario:
 
 # ----------------------------------------------------------------------------- a textured plane
 TEXTURED_DEPTH_M = 1.0  # [m] the plane's distance from the target camera (ViSP's photometric example)
-TEXTURED_SQUARE_M = 0.1  # [m] side of the square of markers on the plane, centred on the optical axis
+TEXTURED_SQUARE_M = 0.2  # [m] side of the square of markers on the plane, centred on the optical axis
 # The default start of textured_plane(), in the target camera's frame: a few centimetres and degrees,
 # the style of start of Collewet & Marchand's experiments: (tx, ty, tz) [m], rotation vector [deg].
 TEXTURED_START = ((0.03, -0.02, 0.05), (2.0, -2.0, 3.0))
 
 
 def textured_camera() -> Any:
-    """The camera of :func:`textured_plane`: 80 x 60 px, focal length 217.5 px (21 x 16 deg).
+    """The camera of :func:`textured_plane`: 120 x 90 px, focal length 150 px (44 x 33 deg).
 
-    A quarter of ViSP's photometric example camera (870 px, 320 x 240): the same field of view,
-    16 times fewer pixels (``PinholeCamera.from_focal_px(217.5, (80, 60))``).
+    ``PinholeCamera.from_focal_px(150, (120, 90))``: small images, so that a run costs little (a
+    pixel sees 6.7 mm of the plane at 1 m, the texture's 5 mm texels smoothed over 15 mm), and a
+    field of view wide enough that the square of markers stays in the image from the starts of
+    photometric servoing, with room for the disc markers' detector. ViSP's photometric example
+    has a narrower one (870 px at 320 x 240: 21 x 16 deg).
     """
     from .model.camera import PinholeCamera
 
-    return PinholeCamera.from_focal_px(217.5, (80, 60), name="textured-plane camera")
+    return PinholeCamera.from_focal_px(150.0, (120, 90), name="textured-plane camera")
 
 
 def textured_plane(
@@ -407,8 +410,8 @@ def textured_plane(
     ``photometricVisualServoing`` geometry); the start is the target camera moved by
     ``translation_m`` (tx, ty, tz) [m] and turned by the rotation vector ``rotation_deg`` [deg],
     both in the target camera's frame: ``T_O_C0 = T_O_C* [R(rotation), t]``. The markers are the
-    corners of a 0.1 m square centred on the plane (what point methods servo on, and what the
-    comparison metrics measure); the scene defaults to ``TexturedPlane()`` (0.6 x 0.45 m, a
+    corners of a 0.2 m square centred on the plane (what point methods servo on, and what the
+    comparison metrics measure); the scene defaults to ``TexturedPlane()`` (1.2 x 0.9 m, a
     generated texture, seed 0). Image it with :func:`textured_camera`.
 
     Raises:

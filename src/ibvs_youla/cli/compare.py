@@ -5,7 +5,7 @@ the ZED 2 stereo camera at 100 Hz and 10 s by default, every registered controll
 of the suite (``gans-rz-180``, ...: the free camera, the normalized monocular camera at 25 Hz and
 30 s, every controller that commands a camera twist), or ``textured-plane``
 (:func:`ibvs_youla.scenarios.textured_plane`: a textured plane and a square of markers, the free
-camera, the 80 x 60 px camera of :func:`~ibvs_youla.scenarios.textured_camera` at 25 Hz and 30 s,
+camera, the 120 x 90 px camera of :func:`~ibvs_youla.scenarios.textured_camera` at 25 Hz and 30 s,
 every controller that commands a camera twist, photometric servoing included). ``--suite
 gans2003`` runs every task of :mod:`ibvs_youla.analysis.suites`. The metrics are those of
 :mod:`ibvs_youla.analysis.compare`.

@@ -381,7 +381,7 @@ class PinholeCamera(_Sensor):
         The principal point is the sensor's centre; ``pixel_pitch`` [m] only sets the unit of the
         features (metres on the sensor, F = focal_px pixel_pitch). ViSP's photometric example
         (``vpCameraParameters(870, 870, 160, 120)``, 320 x 240) is ``from_focal_px(870, (320, 240))``;
-        a quarter of it, ``from_focal_px(217.5, (80, 60))``, has the same 21 x 16 deg field of view.
+        the camera of the textured plane, ``from_focal_px(150, (120, 90))``, sees 44 x 33 deg.
 
         Raises:
             InvalidParameterError: a focal length or pitch <= 0, a resolution that is not two

@@ -118,7 +118,7 @@ class TexturedPlane:
     T_O_P: Any = None
     texel_m: float = 0.005
     texture: Any = None
-    texels: tuple[int, int] = (120, 90)
+    texels: tuple[int, int] = (240, 180)
     seed: int = 0
     smoothing_texels: float = 3.0
     background_grey: float = 0.0
@@ -269,7 +269,7 @@ def _pinhole_with_pixels(camera: Any) -> Any:
             "camera",
             type(camera).__name__,
             "a PinholeCamera with pixels (one lens images the plane), "
-            "e.g. PinholeCamera.from_focal_px(217.5, (80, 60))",
+            "e.g. PinholeCamera.from_focal_px(150, (120, 90))",
         )
     return check_camera_has_pixels(camera)
 

@@ -104,9 +104,16 @@ def test_controllers_benchmark_writes_every_method(tmp_path):
             assert finite_positive(entry[key]), (name, key)
         assert entry["ratio_to_floor"] == pytest.approx(entry["median_us"] / entry["floor_us"])
         assert entry["n"] == 3
-        assert entry["case"] == ("stereo" if name in ("fb", "ff+fb") else "mono")
-    assert set(saved["cases"]["stereo"]["methods"]) == set(names)
-    assert set(saved["cases"]["mono"]["methods"]) == set(names) - {"fb", "ff+fb"}
+        case = "stereo" if name in ("fb", "ff+fb") else ("textured" if name == "photometric" else "mono")
+        assert entry["case"] == case
+    # photometric servoing needs the image of a textured scene: it runs on the textured case alone
+    assert set(saved["cases"]["stereo"]["methods"]) == set(names) - {"photometric"}
+    assert set(saved["cases"]["mono"]["methods"]) == set(names) - {"fb", "ff+fb", "photometric"}
+    assert set(saved["cases"]["textured"]["methods"]) == {"photometric"}
+    assert saved["controllers"]["photometric"]["floor_us"] == pytest.approx(
+        saved["cases"]["textured"]["floor_calls_median_us"]["dot_LTe"]
+    )
+    assert set(saved["cases"]["textured"]["parts_median_us"]) == {"scene_frame", "render_plane"}
     floor_calls = saved["cases"]["mono"]["floor_calls_median_us"]
     assert saved["controllers"]["mpc-ibvs"]["floor_us"] == pytest.approx(
         floor_calls["solvepnp"] + floor_calls["daqp"]
@@ -184,7 +191,8 @@ def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
     assert finite_positive(arm["2"]) and finite_positive(
         saved["projection"]["arm_1000x7_all_methods_minutes"]["2"]
     )
-    assert set(saved["projection"]["arm_run_s_by_method"]) == set(controllers_names())
+    # every method but photometric servoing, which needs a textured scene the arm family has not
+    assert set(saved["projection"]["arm_run_s_by_method"]) == set(controllers_names()) - {"photometric"}
     assert len(saved["history"]) == 1 and saved["history"][0]["arm_1000x7_minutes_2_workers"] == arm["2"]
     assert saved["machine"]["cores"] >= 1 and saved["machine"]["date"]
     assert report["campaigns"]["free"]["scaling"] == saved["campaigns"]["free"]["scaling"]

@@ -181,11 +181,11 @@ class PhotometricVS(Controller):
                 None if image is None else f"an image of shape {image.shape}",
                 f"the camera's image, shape {self.task.image_target.shape} (a sensor that renders the scene)",
             )
-        e = image[self._inner] - self._image_target  # float64: float32 - float64
+        e = (image[self._inner] - self._image_target).ravel()  # float64 (float32 - float64), contiguous
         mu = self.mu(self._frames)
         self._frames += 1
-        self._twist = -self.gain * self._steps[mu].dot(self._L_target_T.dot(e.ravel()))
-        self._signals = {"luminance_rms": np.array([np.sqrt(np.mean(e * e))]), "lm_mu": np.array([mu])}
+        self._twist = -self.gain * self._steps[mu].dot(self._L_target_T.dot(e))
+        self._signals = {"luminance_rms": np.array([np.sqrt(e.dot(e) / e.size)]), "lm_mu": np.array([mu])}
 
     def command(self, reading: JointReading | None) -> np.ndarray:
         """The twist [v; w] of the last frame [m/s, rad/s] (zero before the first)."""

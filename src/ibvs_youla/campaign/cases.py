@@ -301,9 +301,9 @@ def _textured_case(family: str, index: int, rng: np.random.Generator, difficulty
     texture_seed = int(rng.integers(2**31))
     base = textured_plane(scene=TexturedPlane(seed=texture_seed))
     T_target = np.asarray(base.T_O_C_target)
-    T_start = T_target @ delta
+    T_start = matmul(T_target, delta)
     points = np.asarray(base.markers_O)
-    P_C = (points - T_start[:3, 3]) @ T_start[:3, :3]
+    P_C = matmul(points - T_start[:3, 3], T_start[:3, :3])
     if P_C[:, 2].min() < 0.1 or np.abs(P_C[:, :2] / P_C[:, 2:]).max() > 1.0:  # no draw of the family's
         raise _undrawable(family, index, difficulty)  # range comes near: only a huge difficulty does
     scenario = {

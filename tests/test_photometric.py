@@ -189,6 +189,12 @@ def test_image_noise_and_blur_each_change_the_run(free_run):
     for a, b in ((ideal, quantized), (quantized, noisy), (quantized, blurred), (noisy, blurred)):
         assert np.abs(a - b).max() > 1e-6
     assert np.array_equal(noisy, run(image_noise_grey=2.0))  # seeded
+    # pixel noise and a focal-length belief: the first moves point coordinates only, which it does not
+    # use (the same run, bit for bit); the second changes the normalized coordinates of its L_I
+    undisturbed = _free(scenario, 2.0).camera_pose
+    pixel_noise = _free(scenario, 2.0, disturbances=iy.Disturbances(pixel_noise_px=1.0)).camera_pose
+    focal = _free(scenario, 2.0, disturbances=iy.Disturbances(focal_length_scale=1.05)).camera_pose
+    assert np.array_equal(pixel_noise, undisturbed) and np.abs(focal - undisturbed).max() > 1e-6
 
 
 # ----------------------------------------------------------------------------- where it does not apply

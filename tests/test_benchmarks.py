@@ -199,6 +199,29 @@ def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
 
 
 @pytest.mark.slow
+def test_photometric_benchmark_writes_its_keys(tmp_path):
+    out = tmp_path / "photometric.json"
+    report = load("bench_photometric").main(
+        ["--quick", "--configs", "2", "--repeats", "1", "--json", str(out)]
+    )
+    saved = json.loads(out.read_text())
+    assert [e["width_px"] for e in saved["cost"]] == [120, 320, 640]
+    for entry in saved["cost"]:
+        for key in ("frame", "update", "floor_LTe", "reset"):
+            assert finite_positive(entry[key]["median_us"]), key
+        assert entry["update_ratio_to_floor"] == pytest.approx(
+            entry["update"]["median_us"] / entry["floor_LTe"]["median_us"]
+        )
+    for axis in ("rotation_z_deg", "translation_x_m"):
+        for method in ("photometric", "ibvs-current"):
+            d = saved["domains"][axis][method]
+            assert len(d["values"]) == len(d["converged"]) == 2 and d["basin"] in d["values"] + [0.0]
+    assert set(saved["texture"]["smoothing_texels"]) == {"1.5", "3", "6"}
+    assert set(saved["noise"]["steady_mm"]) == {"photometric", "ibvs-current"}
+    assert report["cost"] == saved["cost"] and saved["machine"]["date"]
+
+
+@pytest.mark.slow
 def test_detection_benchmark_writes_the_sweep_and_the_time_per_frame(tmp_path):
     out = tmp_path / "detection.json"
     report = load("bench_detection").main(["--frames", "1", "--repeats", "2", "--json", str(out)])

@@ -32,6 +32,8 @@ def test_textured_cases_carry_their_scene_and_stay_within_a_few_centimetres_and_
         assert case.difficulty["translation_m"] <= TEXTURED_TRANSLATION_M + 1e-12
     assert len({c.scenario["scene"]["seed"] for c in cases}) == 20  # a texture per case
     assert max(c.difficulty["rotation_deg"] for c in cases) > 0.5 * TEXTURED_ROTATION_DEG
+    easy = generate_cases("free-textured", 20, 7, difficulty=0.2)  # the difficulty scales the range
+    assert max(c.difficulty["rotation_deg"] for c in easy) <= 0.2 * TEXTURED_ROTATION_DEG + 1e-9
     with pytest.raises(InvalidParameterError, match="difficulty"):
         generate_cases("free-textured", 1, 7, difficulty=1e3)  # starts behind the plane: refused
 

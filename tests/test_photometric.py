@@ -129,6 +129,17 @@ def test_it_converges_from_a_few_centimetres_and_degrees_on_the_free_camera(free
     assert time_to_converge(result) == pytest.approx(2.28, abs=1e-9)
 
 
+@pytest.mark.parametrize(
+    ("option", "value", "duration"),
+    [("gain", 20.0, 1.0), ("mu_initial", 0.1, 1.0), ("mu_final", 1e-3, 4.0)],  # mu_final from frame 90 on
+)
+def test_each_parameter_alone_changes_the_run(option, value, duration):
+    scenario = scenarios.textured_plane()
+    default = _free(scenario, duration).camera_pose
+    changed = _free(scenario, duration, controllers.make("photometric", **{option: value})).camera_pose
+    assert np.abs(changed - default).max() > 1e-6
+
+
 def test_the_mu_schedule_acts():
     """Gauss-Newton from the first frame (mu_switch_frames = 0) takes another path than the schedule."""
     scenario = scenarios.textured_plane()

@@ -110,7 +110,8 @@ class Scenario:
         T_O_C_target: Target camera pose (4, 4) of a free-camera scenario, else ``None``.
         scene: What the camera images besides the markers: a
             :class:`~ibvs_youla.model.textured_plane.TexturedPlane` for the methods that servo on
-            the image (``photometric``), or ``None`` (the markers alone, as the paper's scenarios).
+            the image (``photometric``), or ``None`` (the markers alone, as the paper's scenarios);
+            the plain data of ``TexturedPlane.to_dict()`` is accepted and rebuilt.
 
     Raises:
         InvalidArrayError: wrong shape or non-finite entries.

@@ -290,7 +290,8 @@ def _add_campaign(sub: Any) -> None:
     p.add_argument(
         "--camera",
         choices=CAMERA_KINDS,
-        help="default: stereo (ZED 2) for an arm family, normalized (F = 1) for a free one",
+        help="default: stereo (ZED 2) for an arm family, normalized (F = 1) for a free one, pinhole "
+        "(120 x 90 px) for free-textured",
     )
     p.add_argument(
         "--duration",

@@ -52,7 +52,7 @@ from .settings import SimulationSettings
 __all__ = ["PLANTS", "SENSORS", "Beliefs", "default_camera", "simulate"]
 
 PLANTS = ("dynamic", "kinematic", "free-camera")
-SENSORS = ("ideal", "images")
+SENSORS = ("ideal", "depth", "images")
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,9 +159,11 @@ def simulate(
         arm: The true arm; default ``Arm.irb4600()`` (not built for a free-camera scenario).
         beliefs: Where the controller's models differ from the truth (:class:`Beliefs`).
         sensor: What measures each frame. None (or ``"ideal"``): the true projections,
-            :class:`~.sensor.MarkerSensor`; ``"images"``: rendered images and detected
-            centres with default settings, :class:`~.image_sensor.ImageSensor`; or a function
-            of the true ``MarkerSensor`` returning the sensor to use (an object with
+            :class:`~.sensor.MarkerSensor`; ``"depth"``: the same with each point's depth in
+            every frame (an RGB-D camera, a ``PinholeCamera`` only: the laws that need depths
+            use the measured ones, ``MarkerSensor(..., depth=True)``); ``"images"``: rendered
+            images and detected centres with default settings, :class:`~.image_sensor.ImageSensor`;
+            or a function of the true ``MarkerSensor`` returning the sensor to use (an object with
             ``measure(T_O_C, t) -> CameraFrame``; e.g. ``lambda truth: ImageSensor(truth,
             DiscMarkers(0.04), ImagingSettings(blur_sigma_px=1.0))``, or a wrapper that disturbs
             ``truth.measure``). The goal features stay the true projections at the target.
@@ -335,6 +337,8 @@ def _sensor(sensor: Any, truth: MarkerSensor) -> Any:
             raise InvalidParameterError("sensor", sensor, valid)
         if sensor == "ideal":
             return truth
+        if sensor == "depth":
+            return truth.with_depth()
         from .image_sensor import ImageSensor
 
         return ImageSensor(truth)

@@ -257,8 +257,9 @@ def headline(r: dict[str, Any]) -> dict[str, Any]:
 def _print(r: dict[str, Any]) -> None:
     for mode, o in r["ours"].items():
         print(
-            f"ibvs-youla {mode:24} {o['step_us']:8.1f} us/step ({o['loop']}; a {r['settings']['steps']}-step run "
-            f"{o['run_ms']:.2f} ms, set-up {o['setup_ms']:.2f} ms, {o['status']})"
+            f"ibvs-youla {mode:24} {o['step_us']:8.1f} us/step ({o['loop']}; a "
+            f"{r['settings']['steps']}-step run {o['run_ms']:.2f} ms, set-up {o['setup_ms']:.2f} ms, "
+            f"{o['status']})"
         )
     for peer, p in r["peers"].items():
         t = p["trajectory"]
@@ -271,9 +272,8 @@ def _print(r: dict[str, Any]) -> None:
     for name, why in r["skipped"].items():
         print(f"  {name}: skipped ({why})")
     other = r["cpu"]["other_cores"]
-    print(
-        f"targets met: {r['targets']['met']}; other jobs used {'?' if other is None else f'{other:.2f}'} cores"
-    )
+    busy = "?" if other is None else f"{other:.2f}"
+    print(f"targets met: {r['targets']['met']}; other jobs used {busy} cores")
 
 
 if __name__ == "__main__":

@@ -144,6 +144,8 @@ class ClassicalIBVS(Controller):
         self._policy = SingularValuePolicy("truncate", PINV_THRESHOLD)
         self._twist = np.zeros(6)
         self._lambda = np.zeros(1)
+        self._L_desired: np.ndarray | None = None
+        self._L_desired_pinv: np.ndarray | None = None
 
     @property
     def name(self) -> str:  # type: ignore[override]
@@ -198,6 +200,16 @@ class ClassicalIBVS(Controller):
     def interaction_matrix(self, features: np.ndarray, depth: np.ndarray | None = None) -> np.ndarray:
         """L(s, Z) (m, 6) at the features, at measured depths (n,) [m] or the model's (class docstring)."""
         return self._interaction(features, depth)
+
+    @property
+    def desired_interaction_matrix(self) -> np.ndarray | None:
+        """L* = L(s*, Z*) (m, 6) of the last reset (``"desired"`` and ``"mean"``; None for ``"current"``)."""
+        return self._L_desired
+
+    @property
+    def desired_pseudo_inverse(self) -> np.ndarray | None:
+        """L*^+ (6, m) of the last reset, as :meth:`pinv` (None for ``"current"``)."""
+        return self._L_desired_pinv
 
     def pinv(self, L: np.ndarray) -> np.ndarray:
         """L^+ (6, m) through the SVD, singular values <= 1e-6 sigma_max dropped (class docstring)."""

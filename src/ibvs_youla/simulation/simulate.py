@@ -39,6 +39,7 @@ from ..model.arm import Arm
 from ..model.camera import PinholeCamera, StereoCamera, default_camera
 from ..scenarios import Scenario
 from .actuation import actuation_chain
+from .compiled_loop import CompiledLoop
 from .disturbances import Disturbances
 from .free_camera import FreeCameraPlant
 from .kinematic_arm import KinematicArmPlant
@@ -52,6 +53,7 @@ from .settings import SimulationSettings
 __all__ = ["PLANTS", "SENSORS", "Beliefs", "default_camera", "simulate"]
 
 PLANTS = ("dynamic", "kinematic", "free-camera")
+LOOPS = ("auto", "plug-in")
 SENSORS = ("ideal", "depth", "images")
 
 
@@ -136,6 +138,7 @@ def simulate(
     sensor: str | Callable[[MarkerSensor], Any] | None = None,
     disturbances: Disturbances | None = None,
     progress: bool = False,
+    loop: str = "auto",
 ) -> SimulationResult:
     """Simulate one scenario in closed loop and return every signal as data.
 
@@ -171,6 +174,11 @@ def simulate(
             mismatch, latency, actuator limits (:class:`~.disturbances.Disturbances`); each
             wraps a role built here, and ``None`` or all-off wraps nothing.
         progress: Show a progress bar (tqdm) on stderr.
+        loop: ``"auto"``: the compiled frame path (:mod:`.compiled_loop`: one compiled call per
+            frame, the same result to rounding) when every role is the library's own and one it
+            covers (classical IBVS, the ideal sensor with or without depth, the free camera or
+            the kinematic arm), else the plug-in loop (:mod:`.loop`); ``"plug-in"``: always the
+            plug-in loop. ``result.metadata["loop"]`` says which ran.
 
     Returns:
         The result. ``result.status`` is ``"complete"``; ``"markers_lost"`` when a marker
@@ -196,6 +204,7 @@ def simulate(
     """
     duration = positive(duration, "duration", unit="s")
     one_of(plant, "plant", PLANTS)
+    one_of(loop, "loop", LOOPS)
     for name, value, kind in (
         ("scenario", scenario, Scenario),
         ("settings", settings, SimulationSettings),
@@ -312,19 +321,16 @@ def simulate(
         signals=shapes,
         metadata=metadata,
     )
-    loop = ServoLoop(
-        ctrl,
-        measuring,
-        world.plant,
-        chain,
-        world.dt,
-        n_ticks,
-        world.ticks_per_frame,
-        record_every,
-        recorder,
-        command_signals,
-    )
-    return loop.run(progress, scenario.name or "simulate")
+    label = scenario.name or "simulate"
+    roles = (ctrl, measuring, world.plant, chain, world.dt, n_ticks, world.ticks_per_frame, record_every)
+    compiled = CompiledLoop.covering(*roles, recorder) if loop == "auto" else None
+    if compiled is not None:
+        recorder.metadata["loop"] = "compiled"
+        result = compiled.run(progress, label)
+        if result is not None:
+            return result
+    recorder.metadata["loop"] = "plug-in"  # the roles' loop; also where the compiled one declined
+    return ServoLoop(*roles, recorder, command_signals).run(progress, label)
 
 
 def _sensor(sensor: Any, truth: MarkerSensor) -> Any:

@@ -270,6 +270,15 @@ def exp6_integrate(T: np.ndarray, twist: np.ndarray, dt: float) -> None:
 
 
 @jit
+def _finite(x: np.ndarray) -> bool:
+    """Every entry of x finite."""
+    for v in x:
+        if not math.isfinite(v):
+            return False
+    return True
+
+
+@jit
 def _record_frame(frames: np.ndarray, index: int, t: float, frame: np.ndarray, n: int) -> None:
     """Row ``index`` of the frame log: [t, features (m), visible (n)] (the update time is the caller's)."""
     frames[index, 0] = t
@@ -306,8 +315,8 @@ def free_camera_frame(
     if not measured and not measure(T_O_C, markers_O, params, frame):
         return DECLINED
     lam = ibvs_twist(frame, n, markers_belief_O, T_estimated, law, params, twist)
-    if not math.isfinite(lam):
-        return DECLINED
+    if not (math.isfinite(lam) and _finite(twist)):
+        return DECLINED  # the plug-in loop raises its error (an invalid command, a diverging plant)
     dt, n_ticks = params[_DT], int(params[_N_TICKS])
     t = k * dt
     m = law.shape[0]
@@ -319,11 +328,6 @@ def free_camera_frame(
             return DECLINED
         row += 1
     if k < n_ticks:
-        square = 0.0
-        for j in range(6):
-            square += twist[j] * twist[j]
-        if not math.isfinite(square):
-            return DECLINED  # the plant's divergence test: the plug-in loop raises its error
         exp6_integrate(T_O_C, twist, dt)
     return row
 
@@ -366,7 +370,7 @@ def kinematic_tick(
         if not measured and not measure(T_O_C, markers_O, params, frame):
             return DECLINED
         lam = ibvs_twist(frame, n, markers_belief_O, T_estimated, law, params, twist)
-        if not math.isfinite(lam):
+        if not (math.isfinite(lam) and _finite(twist)):
             return DECLINED
         gain[0] = lam
         _record_frame(frames, frame_index, t, frame, n)
@@ -374,6 +378,8 @@ def kinematic_tick(
     dq_ref = np.empty(nq)
     if not pseudo_inverse_apply(J_C, twist, params[_JOINT_DAMPED] != 0.0, params[_JOINT_THRESHOLD], dq_ref):
         return DECLINED
+    if not _finite(dq_ref):
+        return DECLINED  # the plant's divergence test: the plug-in loop raises its error
     m = law.shape[0]
     every = int(params[_RECORD_EVERY])
     if k % every == 0 or k == n_ticks:
@@ -382,11 +388,6 @@ def kinematic_tick(
             return DECLINED
         row += 1
     if k < n_ticks:
-        square = 0.0
-        for j in range(nq):
-            square += dq_ref[j] * dq_ref[j]
-        if not math.isfinite(square):
-            return DECLINED
         for j in range(nq):
             state[0, j] = state[0, j] + dq_ref[j] * dt
             state[2, j] = dq_ref[j]

@@ -337,7 +337,8 @@ def _sensor(sensor: Any, truth: MarkerSensor) -> Any:
     """The sensor role: the truth, the image sensor, or what a sensor function makes of the truth."""
     if sensor is None:
         return truth
-    valid = f"None, {' or '.join(map(repr, SENSORS))}, or a function of the true MarkerSensor returning one"
+    names = ", ".join(map(repr, SENSORS[:-1])) + f" or {SENSORS[-1]!r}"
+    valid = f"None, {names}, or a function of the true MarkerSensor returning one"
     if isinstance(sensor, str):
         if sensor not in SENSORS:
             raise InvalidParameterError("sensor", sensor, valid)

@@ -47,7 +47,6 @@ from ..model.camera_kernels import camera_parameters
 from .actuation import TwistToJointVelocity
 from .frame_kernels import (
     DECLINED,
-    DEPTH_FROM_POSE,
     DEPTH_MEASURED,
     DEPTH_TRIANGULATED,
     free_camera_frame,
@@ -88,18 +87,13 @@ class CompiledLoop:
         self.plant, self.recorder, self.n_ticks = plant, recorder, n_ticks
         self.ticks_per_frame, self.record_every = ticks_per_frame, record_every
         self.markers_O = np.ascontiguousarray(sensor.markers_O, dtype=float)
-        self.markers_belief_O = np.ascontiguousarray(task.markers_O, dtype=float)
         gain = controller.gain
         if isinstance(gain, AdaptiveGain):
             gain_ = (gain.lambda_0, gain.lambda_inf, gain.lambda_dot_0, True)
         else:
             gain_ = (float(gain), float(gain), 0.0, False)
-        if sensor.measures_depth:
-            depth_from = DEPTH_MEASURED
-        elif isinstance(task.camera, StereoCamera):
-            depth_from = DEPTH_TRIANGULATED
-        else:
-            depth_from = DEPTH_FROM_POSE
+        # the depths of L (ibvs-desired needs none): measured, or triangulated (covering() checks)
+        depth_from = DEPTH_MEASURED if sensor.measures_depth else DEPTH_TRIANGULATED
         interaction = INTERACTIONS.index(controller.interaction)
         policy = chain[0].policy if chain else None
         self.params = pack_parameters(
@@ -207,14 +201,13 @@ class CompiledLoop:
     def _free_camera(self, table: np.ndarray, row: int, frames: np.ndarray, bar: Any) -> tuple[int, int]:
         n, m = self.markers_O.shape[0], self.law.shape[0]
         T = self.plant.camera_pose()
-        markers, belief, law, params = self.markers_O, self.markers_belief_O, self.law, self.params
+        markers, law, params = self.markers_O, self.law, self.params
         frame, twist, gain, sizes = np.zeros(m + 2 * n), np.zeros(6), np.zeros(1), self.recorder.row_sizes
-        T_estimated, clock = np.eye(4), time.perf_counter  # no PnP here (module docstring)
+        clock = time.perf_counter
         for k in range(self.n_ticks + 1):
             tic = clock()
             row = free_camera_frame(
-                k, T, markers, belief, T_estimated, law, params, frame, False, twist, gain, table, row,
-                sizes, frames,
+                k, T, markers, law, params, frame, twist, gain, table, row, sizes, frames,
             )  # fmt: skip
             if row < 0:
                 return DECLINED, 0
@@ -230,9 +223,9 @@ class CompiledLoop:
         reading = plant.reading()
         q_encoder, q_true, dq = plant.signal_values(reading)
         state = np.array([q_true, q_encoder, dq, plant.joint_offset], dtype=float)  # (4, n_joints)
-        markers, belief, law, params = self.markers_O, self.markers_belief_O, self.law, self.params
+        markers, law, params = self.markers_O, self.law, self.params
         frame, twist, gain, sizes = np.zeros(m + 2 * n), np.zeros(6), np.zeros(1), self.recorder.row_sizes
-        T_estimated, clock = np.eye(4), time.perf_counter
+        clock = time.perf_counter
         camera_fk, jacobian = plant.arm.camera_fk, arm.camera_jacobian_at  # type: ignore[union-attr]
         every, record_every, last = self.ticks_per_frame, self.record_every, self.n_ticks
         T = np.eye(4)
@@ -242,8 +235,8 @@ class CompiledLoop:
             if is_frame or k % record_every == 0 or k == last:
                 T = camera_fk(state[0])
             row = kinematic_tick(
-                k, is_frame, T, jacobian(state[1]), state, markers, belief, T_estimated, law, params,
-                frame, False, twist, gain, table, row, sizes, frames, k // every,
+                k, is_frame, T, jacobian(state[1]), state, markers, law, params, frame, twist, gain,
+                table, row, sizes, frames, k // every,
             )  # fmt: skip
             if row < 0:
                 return DECLINED, 0

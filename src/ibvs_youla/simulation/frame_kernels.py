@@ -42,7 +42,6 @@ from .recorder import record_row
 
 __all__ = [
     "DECLINED",
-    "DEPTH_FROM_POSE",
     "DEPTH_MEASURED",
     "DEPTH_TRIANGULATED",
     "exp6_integrate",
@@ -54,7 +53,7 @@ __all__ = [
 ]
 
 DECLINED = -1  # a kernel's status when the plug-in loop must run instead (module docstring)
-DEPTH_MEASURED, DEPTH_FROM_POSE, DEPTH_TRIANGULATED = 0, 1, 2  # where L's depths come from
+DEPTH_MEASURED, DEPTH_TRIANGULATED = 0, 1  # where the depths of L come from
 _CURRENT, _DESIRED, _MEAN = 0, 1, 2  # the interaction of ibvs.INTERACTIONS, by index
 
 # Layout of the parameter vector (pack_parameters)
@@ -93,7 +92,7 @@ def pack_parameters(
             False) [1/s].
         pinv_threshold: The law's singular-value cut-off (relative to sigma_max).
         interaction: 0 current, 1 desired, 2 mean.
-        depth_from: :data:`DEPTH_MEASURED`, :data:`DEPTH_FROM_POSE` or :data:`DEPTH_TRIANGULATED`.
+        depth_from: :data:`DEPTH_MEASURED` (a depth sensor's) or :data:`DEPTH_TRIANGULATED` (stereo).
         virtual_points: Markers may lie behind the camera (both the sensor and the law).
         measure_depth: The sensor reports depths.
         record_every: Keep every n-th tick sample (and the last).
@@ -146,20 +145,13 @@ def measure(T_O_C: np.ndarray, markers_O: np.ndarray, params: np.ndarray, frame:
 
 
 @jit
-def ibvs_twist(
-    frame: np.ndarray,
-    n: int,
-    markers_belief_O: np.ndarray,
-    T_estimated: np.ndarray,
-    law: np.ndarray,
-    params: np.ndarray,
-    twist: np.ndarray,
-) -> float:
+def ibvs_twist(frame: np.ndarray, n: int, law: np.ndarray, params: np.ndarray, twist: np.ndarray) -> float:
     """The law v = -lambda L_e^+ (s - s*) (Eq. (5)) into ``twist`` (6,); returns lambda [1/s] (NaN: declined).
 
-    L_e: L* (desired), L(s, Z) (current) or (L + L*) / 2 (mean), the depths Z measured (the frame's),
-    of the believed markers in the pose ``T_estimated`` (a monocular camera's PnP), or triangulated
-    (stereo); the points back-projected at them (``current_interaction_matrix``). The pseudo-inverse
+    L_e: L* (desired), L(s, Z) (current) or (L + L*) / 2 (mean), the depths Z measured (the frame's)
+    or triangulated (stereo); the points back-projected at them (``current_interaction_matrix``).
+    A monocular camera's depths from a PnP pose are not computed here (:mod:`.compiled_loop` says
+    why). The pseudo-inverse
     V diag(g) U^T with the singular values <= threshold sigma_max dropped (``ClassicalIBVS.pinv``),
     formed and then applied, as the reference.
     """
@@ -190,18 +182,8 @@ def ibvs_twist(
         else:
             P = np.empty((n, 3))
             per = m // n
-            for i in range(n):
-                if depth_from == DEPTH_MEASURED:
-                    Z = frame[m + n + i]
-                else:  # transform_points(inverse_pose(T), markers)[:, 2]: R^T P + (-R^T t)
-                    t_z = -(T_estimated[0, 2] * T_estimated[0, 3])
-                    t_z -= T_estimated[1, 2] * T_estimated[1, 3]
-                    t_z -= T_estimated[2, 2] * T_estimated[2, 3]
-                    Z = (
-                        markers_belief_O[i, 0] * T_estimated[0, 2]
-                        + markers_belief_O[i, 1] * T_estimated[1, 2]
-                        + markers_belief_O[i, 2] * T_estimated[2, 2]
-                    ) + t_z
+            for i in range(n):  # points_at_depths
+                Z = frame[m + n + i]
                 u = 0.5 * (frame[per * i] + frame[per * i + 1]) if per == 3 else frame[per * i]
                 s = Z / F
                 P[i, 0], P[i, 1], P[i, 2] = u * s, frame[per * i + per - 1] * s, Z
@@ -291,12 +273,9 @@ def free_camera_frame(
     k: int,
     T_O_C: np.ndarray,
     markers_O: np.ndarray,
-    markers_belief_O: np.ndarray,
-    T_estimated: np.ndarray,
     law: np.ndarray,
     params: np.ndarray,
     frame: np.ndarray,
-    measured: bool,
     twist: np.ndarray,
     gain: np.ndarray,
     table: np.ndarray,
@@ -306,15 +285,14 @@ def free_camera_frame(
 ) -> int:
     """Frame k of classical IBVS on the free camera; returns the next free table row, or DECLINED.
 
-    Measures (unless ``measured``: the frame is in ``frame`` already, e.g. for a PnP between), the
-    law into ``twist`` and ``gain`` (1,), the sample into ``table`` (row ``row``, when kept: every
-    record_every-th tick and the last) and the frame log, then T_O_C <- T_O_C exp(dt [v]^) unless
-    k is the last tick.
+    Measures into ``frame``, the law into ``twist`` and ``gain`` (1,), the sample into ``table`` (row
+    ``row``, when kept: every record_every-th tick and the last) and the frame log, then T_O_C <-
+    T_O_C exp(dt [v]^) unless k is the last tick.
     """
     n = markers_O.shape[0]
-    if not measured and not measure(T_O_C, markers_O, params, frame):
+    if not measure(T_O_C, markers_O, params, frame):
         return DECLINED
-    lam = ibvs_twist(frame, n, markers_belief_O, T_estimated, law, params, twist)
+    lam = ibvs_twist(frame, n, law, params, twist)
     if not (math.isfinite(lam) and _finite(twist)):
         return DECLINED  # the plug-in loop raises its error (an invalid command, a diverging plant)
     dt, n_ticks = params[_DT], int(params[_N_TICKS])
@@ -340,12 +318,9 @@ def kinematic_tick(
     J_C: np.ndarray,
     state: np.ndarray,
     markers_O: np.ndarray,
-    markers_belief_O: np.ndarray,
-    T_estimated: np.ndarray,
     law: np.ndarray,
     params: np.ndarray,
     frame: np.ndarray,
-    measured: bool,
     twist: np.ndarray,
     gain: np.ndarray,
     table: np.ndarray,
@@ -357,8 +332,8 @@ def kinematic_tick(
     """Tick k of classical IBVS on the kinematic arm; returns the next free table row, or DECLINED.
 
     ``state`` (4, n): true joints q_true, encoders q = q_true - d, speeds dq and the offset d [rad,
-    rad/s], advanced in place. On a frame tick (``is_frame``), the frame (measured from T_O_C unless
-    ``measured``) and the law into ``twist`` and ``gain``, logged at ``frame_index``; then every tick
+    rad/s], advanced in place. On a frame tick (``is_frame``), the frame measured from T_O_C and the
+    law into ``twist`` and ``gain``, logged at ``frame_index``; then every tick
     dq_ref = J_C^+ [v; w] (the actuation's damped pseudo-inverse, J_C (6, n) at the encoders), the
     sample (encoders, true joints, speeds, twist, dq_ref, gain; T_O_C must be the pose at q_true
     when the sample is kept) and, unless k is the last tick, q_true <- q_true + dt dq_ref.
@@ -367,9 +342,9 @@ def kinematic_tick(
     dt, n_ticks = params[_DT], int(params[_N_TICKS])
     t = k * dt
     if is_frame:
-        if not measured and not measure(T_O_C, markers_O, params, frame):
+        if not measure(T_O_C, markers_O, params, frame):
             return DECLINED
-        lam = ibvs_twist(frame, n, markers_belief_O, T_estimated, law, params, twist)
+        lam = ibvs_twist(frame, n, law, params, twist)
         if not (math.isfinite(lam) and _finite(twist)):
             return DECLINED
         gain[0] = lam

@@ -175,9 +175,9 @@ def peers(r: Report) -> str:
         )
     labels = {
         "depth": 'ibvs-youla, measured depth (`sensor="depth"`)',
-        "depth, plug-in loop": "ibvs-youla, measured depth, `loop=\"plug-in\"`",
+        "depth, plug-in loop": 'ibvs-youla, measured depth, `loop="plug-in"`',
         "monocular": "ibvs-youla, monocular (SQPnP depths)",
-        "monocular, plug-in loop": "ibvs-youla, monocular, `loop=\"plug-in\"`",
+        "monocular, plug-in loop": 'ibvs-youla, monocular, `loop="plug-in"`',
     }
     for mode, o in r["ours"].items():
         rows.append(

@@ -59,8 +59,9 @@ minimal Python IBVS law (L of the four points built with numpy from features and
 With ``--mvtb-python PATH`` (an interpreter where ``machinevision-toolbox-python`` is installed,
 never a dependency of this project) the Machine Vision Toolbox for Python's ``IBVS.step`` and its
 law alone (``visjac_p`` + ``np.linalg.pinv``) are timed on the same poses, in a worker process
-that runs its pass in turn with the others (GC off there too). ViSP is not installed: its
-``computeControlLaw`` is not timed.
+that runs its pass in turn with the others (GC off there too). These are laws alone beside the
+toolbox's whole step (projection, law and pose update): not the same work, so not a comparison of
+speed; ``bench_peers.py`` times whole steps of ibvs-youla, ViSP 3.5 and the toolbox on the same case.
 
 Run: ``python benchmarks/bench_controllers.py --json controllers.json [--configs N] [--repeats R]``.
 """
@@ -543,7 +544,7 @@ def _report(
         for key in mono_stats
         if key.startswith("ref:")
     }
-    not_timed = {"visp-computeControlLaw": "ViSP is not installed here: not timed"}
+    not_timed = {"visp-computeControlLaw": "a law alone: ViSP's whole loop iteration is in bench_peers"}
     if worker is None:
         not_timed["mvtb-ibvs-step"] = "no --mvtb-python given: not timed"
     else:

@@ -160,6 +160,45 @@ def controllers(r: Report) -> str:
     )
 
 
+def peers(r: Report) -> str:
+    """One step of ViSP's tutorial-ibvs-4pts by ibvs-youla, ViSP 3.5 and MVTB, the same case, one run."""
+    visp, mvtb = r["peers"].get("visp"), r["peers"].get("mvtb")
+    rows = [
+        "| one step of tutorial-ibvs-4pts | median [us] | / ViSP | MVTB / this | features vs ours (max) |",
+        "| --- | ---: | ---: | ---: | ---: |",
+    ]
+    if visp:
+        rows.append(
+            f"| ViSP {visp['version']} C++ (vpServo + vpSimulatorCamera) | {_num(visp['step_us'])} | 1.0 | "
+            f"{_num(mvtb['step_us'] / visp['step_us']) if mvtb else 'n/a'} | "
+            f"{visp['trajectory']['max']:.1e} |"
+        )
+    labels = {
+        "depth": 'ibvs-youla, measured depth (`sensor="depth"`)',
+        "depth, plug-in loop": 'ibvs-youla, measured depth, `loop="plug-in"`',
+        "monocular": "ibvs-youla, monocular (SQPnP depths)",
+        "monocular, plug-in loop": 'ibvs-youla, monocular, `loop="plug-in"`',
+    }
+    for mode, o in r["ours"].items():
+        rows.append(
+            f"| {labels.get(mode, mode)}: the {o['loop']} loop | **{_num(o['step_us'])}** | "
+            f"{_num(o['step_us'] / visp['step_us']) if visp else 'n/a'} | "
+            f"{_num(mvtb['step_us'] / o['step_us']) if mvtb else 'n/a'} | |"
+        )
+    if mvtb:
+        rows.append(
+            f"| MVTB-python {mvtb['version']} `IBVS.step` | {_num(mvtb['step_us'])} | "
+            f"{_num(mvtb['step_us'] / visp['step_us']) if visp else 'n/a'} | 1.0 | "
+            f"{mvtb['trajectory']['max']:.1e} |"
+        )
+    s = r["settings"]
+    skipped = "".join(f" {k} skipped: {v}." for k, v in r.get("skipped", {}).items())
+    return (
+        "\n".join(rows)
+        + f"\n\n{s['steps']} steps per run, {s['rounds']} alternating rounds.{skipped} Measured {_when(r)}.\n"
+    )
+
+
 def campaign(r: Report) -> str:
     """Runs per minute on 1 and 2 Dask workers, scaling, overhead, and the campaign sizings."""
     rows = [
@@ -299,6 +338,21 @@ def targets(reports: dict[str, Report | None]) -> str:
                 f"| classical IBVS, {name}, 25 Hz: >= 1,000x | {_num(c['realtime_factor'], 0)}x | "
                 f"{_met(c['realtime_factor'] >= 1000)} | {load(sim)} |"
             )
+    peer = reports.get("peers")
+    if peer is not None and peer.get("ratios"):
+        ratios, ours = peer["ratios"], peer["ours"]
+        checks = (  # (ratio, the target, what it says)
+            ("depth / visp", lambda x: x <= 3.0, "measured depth: a step <= 3x ViSP's C++ iteration"),
+            ("mvtb / depth", lambda x: x >= 20.0, "measured depth: >= 20x faster than MVTB's IBVS.step"),
+            ("monocular / visp", lambda x: x <= 6.0, "monocular (PnP depths): a step <= 6x ViSP's"),
+        )
+        for key, ok, what in checks:
+            if key in ratios:
+                mode = "depth" if "depth" in key else "monocular"
+                rows.append(
+                    f"| {what} | {_num(ratios[key], 2)}x ({_num(ours[mode]['step_us'])} us) | "
+                    f"{_met(ok(ratios[key]))} | {load(peer)} |"
+                )
     if camp is not None:
         p = camp["projection"]
         rows.append(
@@ -319,6 +373,7 @@ TABLES: dict[str, tuple[str, Callable[[Report], str]]] = {
     "outer_loop": ("outer_loop", outer_loop),
     "simulation": ("simulation", simulation),
     "controllers": ("controllers", controllers),
+    "peers": ("peers", peers),
     "campaign": ("campaign", campaign),
 }
 

@@ -190,6 +190,32 @@ def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
     assert report["campaigns"]["free"]["scaling"] == saved["campaigns"]["free"]["scaling"]
 
 
+def test_peers_benchmark_writes_our_steps_and_its_table(tmp_path):
+    """Without the peers (not tests: ViSP and MVTB are not installed by the suite), the script still
+    times our variants, writes their keys and renders its README table; no ratio without a peer."""
+    out = tmp_path / "peers.json"
+    argv = [
+        "--steps",
+        "12",
+        "--rounds",
+        "1",
+        "--ours-repeats",
+        "1",
+        "--no-visp",
+        "--no-mvtb",
+        "--json",
+        str(out),
+    ]
+    report = load("bench_peers").main(argv)
+    saved = json.loads(out.read_text())
+    assert saved["ours"].keys() == report["ours"].keys() >= {"depth", "monocular", "depth, plug-in loop"}
+    assert saved["ours"]["depth"]["loop"] == "compiled" and saved["ours"]["monocular"]["loop"] == "plug-in"
+    assert all(finite_positive(o["run_ms"]) for o in saved["ours"].values())
+    assert saved["peers"] == {} and saved["ratios"] == {} and saved["targets"]["met"] == {}
+    table = load("figures").peers(saved)
+    assert "measured depth" in table and "ViSP 3.5" not in table and "| n/a | n/a |" in table
+
+
 @pytest.mark.slow
 def test_detection_benchmark_writes_the_sweep_and_the_time_per_frame(tmp_path):
     out = tmp_path / "detection.json"

@@ -8,6 +8,11 @@ L(s, Z) at the measured features with depths from the controller's own model:
 * monocular (a ``PinholeCamera``, >= 4 points, 2 rows per point): the camera pose estimated
   from the image, ``estimate_camera_pose(task.camera, features, task.markers_O)`` (SQPnP), and
   the believed markers give the depths Z_i; the points are back-projected, X = u Z / F.
+
+A frame that carries measured depths (a depth sensor, :attr:`~.base.CameraFrame.depth`) gives
+the depths instead, with no estimate: the points are back-projected at them, X = u Z / F,
+Y = v Z / F (monocular), X = (u_l + u_r) Z / (2 F), Y = v Z / F (stereo, mid-baseline), as
+ViSP's tutorials give ``vpFeaturePoint`` the simulator's depth.
 """
 
 from __future__ import annotations
@@ -17,7 +22,13 @@ import numpy as np
 from .._geometry import inverse_pose, transform_points
 from ..estimation.monocular_pose import CameraPoseEstimator, estimate_camera_pose
 from ..exceptions import InvalidParameterError
-from ..model.camera import PinholeCamera, StereoCamera, points_interaction_matrix, triangulate_points
+from ..model.camera import (
+    PinholeCamera,
+    StereoCamera,
+    points_at_depths,
+    points_interaction_matrix,
+    triangulate_points,
+)
 from ..model.camera_kernels import camera_parameters, interaction_matrix, triangulate
 from .base import ServoTask
 
@@ -54,13 +65,18 @@ def feature_rows(task: ServoTask, controller: str) -> int:
     return rows
 
 
-def current_interaction_matrix(task: ServoTask, features: np.ndarray, rows: int) -> np.ndarray:
-    """L(s, Z) (m, 6) at the measured features, depths from the controller's model (module docstring).
+def current_interaction_matrix(
+    task: ServoTask, features: np.ndarray, rows: int, depth: np.ndarray | None = None
+) -> np.ndarray:
+    """L(s, Z) (m, 6) at the measured features, depths measured or from the controller's model.
 
-    The plain reference of :class:`CurrentInteraction`, which the controllers call at every frame.
+    The plain reference of :class:`CurrentInteraction`, which the controllers call at every frame
+    (module docstring); ``depth`` (n,) [m] is a frame's measured depths, None for none.
     """
     camera, n = task.camera, task.n_points
-    if rows == 3:
+    if depth is not None:
+        P_C = points_at_depths(camera, features, depth)
+    elif rows == 3:
         P_C = triangulate_points(camera, features.reshape(n, 3), task.virtual_points)
     else:
         T_O_C = estimate_camera_pose(camera, features, task.markers_O)
@@ -90,10 +106,12 @@ class CurrentInteraction:
         self._params, self._lens_x = camera_parameters(task.camera)
         self.pose_estimator = CameraPoseEstimator(task.camera, task.markers_O) if rows == 2 else None
 
-    def __call__(self, features: np.ndarray) -> np.ndarray:
-        """L(s, Z) (m, 6) at the measured features (m,)."""
+    def __call__(self, features: np.ndarray, depth: np.ndarray | None = None) -> np.ndarray:
+        """L(s, Z) (m, 6) at the measured features (m,), at the measured depths (n,) [m] if given."""
         task, camera, n = self.task, self._camera, self._n
-        if self.pose_estimator is None:  # stereo: the points triangulated
+        if depth is not None:
+            P_C = points_at_depths(camera, features, depth)
+        elif self.pose_estimator is None:  # stereo: the points triangulated
             P_C, bad = triangulate(features.reshape(-1), self._params, self._allow_behind)
             if bad >= 0:  # a disparity the triangulation rejects: the reference raises its error
                 triangulate_points(camera, features.reshape(n, 3), self._allow_behind)

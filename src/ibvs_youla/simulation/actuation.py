@@ -71,6 +71,16 @@ class TwistToJointVelocity:
         self._damped, self._threshold = self._policy.kind == "damped", self._policy.threshold
         self._integrator: VelocityToPosition | None = None
 
+    @property
+    def arm(self) -> Any:
+        """The controller's arm model whose J_C is inverted."""
+        return self._arm
+
+    @property
+    def policy(self) -> SingularValuePolicy:
+        """The pseudo-inverse of J_C near singularities."""
+        return self._policy
+
     def integrate_into(self, integrator: VelocityToPosition) -> None:
         """Integrate each dq_ref for ``integrator`` (the next link) in the same compiled call.
 

@@ -39,6 +39,7 @@ from ..model.arm import Arm
 from ..model.camera import PinholeCamera, StereoCamera, default_camera
 from ..scenarios import Scenario
 from .actuation import actuation_chain
+from .compiled_loop import CompiledLoop
 from .disturbances import Disturbances
 from .free_camera import FreeCameraPlant
 from .kinematic_arm import KinematicArmPlant
@@ -52,7 +53,8 @@ from .settings import SimulationSettings
 __all__ = ["PLANTS", "SENSORS", "Beliefs", "default_camera", "simulate"]
 
 PLANTS = ("dynamic", "kinematic", "free-camera")
-SENSORS = ("ideal", "images")
+LOOPS = ("auto", "plug-in")
+SENSORS = ("ideal", "depth", "images")
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,6 +138,7 @@ def simulate(
     sensor: str | Callable[[MarkerSensor], Any] | None = None,
     disturbances: Disturbances | None = None,
     progress: bool = False,
+    loop: str = "auto",
 ) -> SimulationResult:
     """Simulate one scenario in closed loop and return every signal as data.
 
@@ -159,9 +162,11 @@ def simulate(
         arm: The true arm; default ``Arm.irb4600()`` (not built for a free-camera scenario).
         beliefs: Where the controller's models differ from the truth (:class:`Beliefs`).
         sensor: What measures each frame. None (or ``"ideal"``): the true projections,
-            :class:`~.sensor.MarkerSensor`; ``"images"``: rendered images and detected
-            centres with default settings, :class:`~.image_sensor.ImageSensor`; or a function
-            of the true ``MarkerSensor`` returning the sensor to use (an object with
+            :class:`~.sensor.MarkerSensor`; ``"depth"``: the same with each point's depth in
+            every frame (an RGB-D camera, a ``PinholeCamera`` only: the laws that need depths
+            use the measured ones, ``MarkerSensor(..., depth=True)``); ``"images"``: rendered
+            images and detected centres with default settings, :class:`~.image_sensor.ImageSensor`;
+            or a function of the true ``MarkerSensor`` returning the sensor to use (an object with
             ``measure(T_O_C, t) -> CameraFrame``; e.g. ``lambda truth: ImageSensor(truth,
             DiscMarkers(0.04), ImagingSettings(blur_sigma_px=1.0))``, or a wrapper that disturbs
             ``truth.measure``). The goal features stay the true projections at the target.
@@ -169,6 +174,11 @@ def simulate(
             mismatch, latency, actuator limits (:class:`~.disturbances.Disturbances`); each
             wraps a role built here, and ``None`` or all-off wraps nothing.
         progress: Show a progress bar (tqdm) on stderr.
+        loop: ``"auto"``: the compiled frame path (:mod:`.compiled_loop`: one compiled call per
+            frame, the same result to rounding) when every role is the library's own and one it
+            covers (classical IBVS, the ideal sensor with or without depth, the free camera or
+            the kinematic arm), else the plug-in loop (:mod:`.loop`); ``"plug-in"``: always the
+            plug-in loop. ``result.metadata["loop"]`` says which ran.
 
     Returns:
         The result. ``result.status`` is ``"complete"``; ``"markers_lost"`` when a marker
@@ -194,6 +204,7 @@ def simulate(
     """
     duration = positive(duration, "duration", unit="s")
     one_of(plant, "plant", PLANTS)
+    one_of(loop, "loop", LOOPS)
     for name, value, kind in (
         ("scenario", scenario, Scenario),
         ("settings", settings, SimulationSettings),
@@ -310,31 +321,31 @@ def simulate(
         signals=shapes,
         metadata=metadata,
     )
-    loop = ServoLoop(
-        ctrl,
-        measuring,
-        world.plant,
-        chain,
-        world.dt,
-        n_ticks,
-        world.ticks_per_frame,
-        record_every,
-        recorder,
-        command_signals,
-    )
-    return loop.run(progress, scenario.name or "simulate")
+    label = scenario.name or "simulate"
+    roles = (ctrl, measuring, world.plant, chain, world.dt, n_ticks, world.ticks_per_frame, record_every)
+    compiled = CompiledLoop.covering(*roles, recorder) if loop == "auto" else None
+    if compiled is not None:
+        recorder.metadata["loop"] = "compiled"
+        result = compiled.run(progress, label)
+        if result is not None:
+            return result
+    recorder.metadata["loop"] = "plug-in"  # the roles' loop; also where the compiled one declined
+    return ServoLoop(*roles, recorder, command_signals).run(progress, label)
 
 
 def _sensor(sensor: Any, truth: MarkerSensor) -> Any:
     """The sensor role: the truth, the image sensor, or what a sensor function makes of the truth."""
     if sensor is None:
         return truth
-    valid = f"None, {' or '.join(map(repr, SENSORS))}, or a function of the true MarkerSensor returning one"
+    names = ", ".join(map(repr, SENSORS[:-1])) + f" or {SENSORS[-1]!r}"
+    valid = f"None, {names}, or a function of the true MarkerSensor returning one"
     if isinstance(sensor, str):
         if sensor not in SENSORS:
             raise InvalidParameterError("sensor", sensor, valid)
         if sensor == "ideal":
             return truth
+        if sensor == "depth":
+            return truth.with_depth()
         from .image_sensor import ImageSensor
 
         return ImageSensor(truth)

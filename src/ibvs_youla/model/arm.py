@@ -70,9 +70,9 @@ from .ik import (
     numerical_branches,
     select_branches,
 )
-from .ik_kernels import ik_parameter_array, nearest_branch_compiled, poses_match
+from .ik_kernels import ik_parameter_array, nearest_branch_compiled, nearest_row_compiled, poses_match
 from .ik_numerical import solve_near
-from .ik_ur import UrParameters, ur_branches
+from .ik_ur import UrParameters, ur_branches_compiled, ur_parameter_array
 from .urdf_checks import check_model
 
 __all__ = ["ABA_CONVENTION", "ActuatorParameters", "Arm"]
@@ -245,6 +245,12 @@ class Arm:
             SphericalWristParameters.identify(self.model, self._flange_id) if n == 6 and revolute else None
         )
         self._ur = UrParameters.identify(self.model, self._flange_id) if self._ik_parameters is None else None
+        if self._ur is not None:  # for the compiled UR closed form: T_06 = T_0_O T_O_C T_C_6
+            self._ur_arrays = (
+                ur_parameter_array(self._ur),
+                np.linalg.inv(self._ur.T_O_0),
+                self._T_C_E @ np.linalg.inv(self._ur.T_6_E),
+            )
         rng = np.random.default_rng(0)
         lo, hi = np.maximum(self.q_min, -math.pi), np.minimum(self.q_max, math.pi)
         self._ik_seeds = lo + (hi - lo) * rng.random((_IK_SEEDS, n))
@@ -708,7 +714,7 @@ class Arm:
         if self._ik_parameters is not None:
             raw = closed_form_branches(self._ik_parameters, T_O_C @ self._T_C_E, ref)
         elif self._ur is not None:
-            raw = ur_branches(self._ur, T_O_C @ self._T_C_E, ref)
+            raw = self._ur_rows(T_O_C, ref)
         else:
             seeds = self._ik_seeds if q_near is None else np.vstack([ref, self._ik_seeds])
             raw = numerical_branches(model, data, self._camera_id, T_O_C, seeds)
@@ -732,6 +738,12 @@ class Arm:
             )
             raise UnreachablePoseError(T_O_C, f"{self.name}: camera pose at {where} m: {why}")
         return solutions
+
+    def _ur_rows(self, T_O_C: np.ndarray, ref: np.ndarray) -> np.ndarray:
+        """The UR closed form's branches (k, 6) of the camera pose (:func:`~.ik_ur.ur_branches_compiled`)."""
+        p, T_0_O, T_C_6 = self._ur_arrays
+        rows = np.empty((8, 6))
+        return rows[: ur_branches_compiled(p, T_0_O, T_O_C, T_C_6, float(ref[5]), rows)]
 
     def _select(self, raw: np.ndarray, ref: np.ndarray) -> np.ndarray:
         """`select_branches` with this arm's limits (prismatic joints not wrapped)."""
@@ -770,8 +782,11 @@ class Arm:
             )
             q = q if found else None
         elif self._ur is not None:
-            rows = self._select(ur_branches(self._ur, T_O_C @ self._T_C_E, q_near), q_near)
-            q = rows[0] if rows.shape[0] else None
+            p, T_0_O, T_C_6 = self._ur_arrays
+            rows = np.empty((8, 6))
+            count = ur_branches_compiled(p, T_0_O, T_O_C, T_C_6, q_near[5], rows)
+            found, q = nearest_row_compiled(rows, count, self.q_min, self.q_max, q_near, 1e-9)
+            q = q if found else None
         else:
             q = solve_near(self.model, self._thread_data.data, self._camera_id, T_O_C, q_near)
             if q is not None and not (np.all(q >= self.q_min) and np.all(q <= self.q_max)):

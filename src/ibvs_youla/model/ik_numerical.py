@@ -21,14 +21,10 @@ import pinocchio as pin
 
 __all__ = ["NEAREST_TOL", "numerical_branches", "solve_near"]
 
-NEAREST_TOL = 1e-9  # max |N(q) (q - q_ref)| [rad or m] accepted as "nearest the reference" (redundant arms)
+NEAREST_TOL = (
+    1e-9  # max_i |(N(q) (q - q_ref))_i| [rad or m] accepted as nearest the reference (redundant arms)
+)
 _STEP_CAP = 0.5  # largest joint step of one iteration [rad or m]
-
-
-def _newton_step(J: np.ndarray, err: np.ndarray, norm: float) -> np.ndarray:
-    """Damped least squares dq = J^T (J J^T + lam I)^-1 err (lam = 1e-4 far from the pose, 1e-12 near)."""
-    lam = 1e-4 if norm > 1e-3 else 1e-12
-    return J.T @ np.linalg.solve(J @ J.T + lam * np.eye(6), err)  # type: ignore[no-any-return]
 
 
 def solve_near(
@@ -44,10 +40,18 @@ def solve_near(
 ) -> np.ndarray | None:
     """IK of a frame pose by damped Newton from ``q_start`` (module docstring), or None.
 
-    Each iteration: the LOCAL error ``e = log6(T_O_F(q)^-1 T_O_F)``, the LOCAL frame Jacobian J
-    (6, n), ``dq = J^+ e`` (damped, :func:`_newton_step`), plus on a redundant arm
-    ``N (q_ref - q)`` with N = I - J^+ J, steps capped at 0.5 per joint. Stops when
-    |e| < ``tol`` and, redundant, |N (q - q_ref)| <= :data:`NEAREST_TOL`.
+    Each iteration: the LOCAL error ``e = log6(T_O_F(q)^-1 T_O_F)`` and the LOCAL frame Jacobian J
+    (6, n) from one kinematics pass; with J^# = J^T (J J^T + lam I)^-1 (lam = 1e-4 while |e| >
+    1e-3, then 1e-12: damped least squares far from the pose, Newton near it):
+
+    * six joints: ``dq = J^# e``;
+    * a redundant arm: ``dq = d + J^# (e - J d)``, d = q_ref - q, i.e. J^# e + (I - J^# J) d: the
+      Gauss-Newton step of min |q - q_ref|^2 subject to FK(q) = T on the linearized constraint
+      (the null-space pull towards q_ref, in one solve).
+
+    Steps are capped at 0.5 per joint. It stops when |e| < ``tol`` and, redundant, max_i |dq_i| <=
+    :data:`NEAREST_TOL` (then max_i |(N (q_ref - q))_i| <= NEAREST_TOL + |J^# e|: the first-order
+    condition).
 
     Args:
         model: Pinocchio model (not modified).
@@ -66,21 +70,22 @@ def solve_near(
     q = np.array(q_start, dtype=float)
     ref = q.copy() if q_ref is None else np.asarray(q_ref, dtype=float)
     redundant = model.nv > 6
+    eye = np.eye(6)
     for _ in range(max_iter):
         pin.computeJointJacobians(model, data, q)  # the kinematics pass: joint placements and Jacobians
         J = pin.getFrameJacobian(model, data, frame_id, pin.LOCAL)
         err = pin.log6(pin.updateFramePlacement(model, data, frame_id).actInv(target)).vector
         norm = float(np.linalg.norm(err))
+        lam = 1e-4 if norm > 1e-3 else 1e-12
         if redundant:
-            J_pinv = np.linalg.pinv(J)
-            pull = (ref - q) - J_pinv @ (J @ (ref - q))  # N (q_ref - q)
-            if norm < tol and float(np.linalg.norm(pull)) <= NEAREST_TOL:
+            d = ref - q
+            dq = d + J.T.dot(np.linalg.solve(J.dot(J.T) + lam * eye, err - J.dot(d)))
+            if norm < tol and float(np.abs(dq).max()) <= NEAREST_TOL:
                 return q
-            dq = _newton_step(J, err, norm) + pull
         else:
             if norm < tol:
                 return q
-            dq = _newton_step(J, err, norm)
+            dq = J.T.dot(np.linalg.solve(J.dot(J.T) + lam * eye, err))
         step = float(np.abs(dq).max())
         q = q + (dq if step <= _STEP_CAP else dq * (_STEP_CAP / step))
     return None

@@ -49,9 +49,10 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ._ik_closed_form import SINGULAR_TOL, wrap_angles
+from .._jit import jit
+from ._ik_closed_form import SINGULAR_TOL
 
-__all__ = ["UrParameters", "ur_branches"]
+__all__ = ["UrParameters", "ur_branches", "ur_branches_compiled", "ur_parameter_array"]
 
 _ALPHA = (0.5 * math.pi, 0.0, 0.0, 0.5 * math.pi, -0.5 * math.pi, 0.0)  # [rad]
 _PARALLEL_TOL = 1e-9  # |sin| between axes taken as parallel / |cos| taken as perpendicular
@@ -155,6 +156,11 @@ class UrParameters:
         return cand
 
 
+def ur_parameter_array(p: UrParameters) -> np.ndarray:
+    """``[d1, a2, a3, d4, d5, d6, s1, ..., s6]`` for :func:`ur_branches_compiled`."""
+    return np.array([p.d1, p.a2, p.a3, p.d4, p.d5, p.d6, *p.signs], dtype=float)
+
+
 def ur_branches(p: UrParameters, T_O_E: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
     """Every IK solution (model joint angles) of the flange pose, joint limits ignored (module docstring).
 
@@ -166,45 +172,85 @@ def ur_branches(p: UrParameters, T_O_E: np.ndarray, q_ref: np.ndarray) -> np.nda
     Returns:
         Up to 8 rows (k, 6) [rad] in (-pi, pi]; empty (0, 6) when out of reach.
     """
-    T = np.linalg.solve(p.T_O_0, T_O_E) @ np.linalg.inv(p.T_6_E)  # T_06
-    R, pos = T[:3, :3], T[:3, 3]
-    p5 = pos - p.d6 * R[:, 2]
-    r = math.hypot(p5[0], p5[1])
-    if r < abs(p.d4) or r < SINGULAR_TOL:
-        return np.zeros((0, 6))
-    psi, phi = math.atan2(p5[1], p5[0]), math.asin(p.d4 / r)
-    theta6_ref = float(p.signs[5] * q_ref[5])
-    rows = []
-    for t1 in (psi + phi, psi + math.pi - phi):
+    out = np.empty((8, 6))
+    count = ur_branches_compiled(
+        ur_parameter_array(p),
+        np.linalg.inv(p.T_O_0),
+        np.asarray(T_O_E, dtype=float),
+        np.linalg.inv(p.T_6_E),
+        float(q_ref[5]),
+        out,
+    )
+    return out[:count].copy()
+
+
+@jit
+def ur_branches_compiled(
+    p: np.ndarray, T_0_O: np.ndarray, T_O_C: np.ndarray, T_C_6: np.ndarray, q6_ref: float, out: np.ndarray
+) -> int:
+    """Branches of the UR closed form into ``out`` (8, 6) [rad], model angles in (-pi, pi]; their count.
+
+    ``p`` from :func:`ur_parameter_array`; T_06 = T_0_O T_O_C T_C_6 (so T_O_C may be the camera
+    pose and T_C_6 the camera-to-DH-6 transform, or T_O_E and T_6_E^-1); ``q6_ref`` the model
+    angle of joint 6 used at the wrist singularity. The steps of the module docstring.
+    """
+    d1, a2, a3, d4, d5, d6 = p[0], p[1], p[2], p[3], p[4], p[5]
+    T = np.empty((4, 4))
+    W = np.empty((4, 4))
+    for i in range(4):
+        for j in range(4):
+            W[i, j] = T_0_O[i, 0] * T_O_C[0, j] + T_0_O[i, 1] * T_O_C[1, j] + T_0_O[i, 2] * T_O_C[2, j]
+            W[i, j] += T_0_O[i, 3] * T_O_C[3, j]
+    for i in range(4):
+        for j in range(4):
+            T[i, j] = (
+                W[i, 0] * T_C_6[0, j] + W[i, 1] * T_C_6[1, j] + W[i, 2] * T_C_6[2, j] + W[i, 3] * T_C_6[3, j]
+            )
+    px, py, pz = T[0, 3], T[1, 3], T[2, 3]
+    x5, y5, z5 = px - d6 * T[0, 2], py - d6 * T[1, 2], pz - d6 * T[2, 2]
+    r = math.hypot(x5, y5)
+    if r < abs(d4) or r < SINGULAR_TOL:
+        return 0
+    psi, phi = math.atan2(y5, x5), math.asin(d4 / r)
+    theta6_ref = p[11] * q6_ref
+    count = 0
+    for shoulder in range(2):
+        t1 = psi + phi if shoulder == 0 else psi + math.pi - phi
         c1, s1 = math.cos(t1), math.sin(t1)
-        z1 = np.array([s1, -c1, 0.0])
-        c5 = (s1 * pos[0] - c1 * pos[1] - p.d4) / p.d6
+        c5 = (s1 * px - c1 * py - d4) / d6
         if abs(c5) > 1.0 + 1e-12:
             continue
         a5 = math.acos(min(1.0, max(-1.0, c5)))
-        R_01 = np.array([[c1, 0.0, s1], [s1, 0.0, -c1], [0.0, 1.0, 0.0]])
-        R_16 = R_01.T @ R
-        for t5 in (a5, -a5) if a5 > 0.0 else (a5,):
-            s5 = math.sin(t5)
+        # R_16 = R_01^T R, rows x1 = (c1, s1, 0), y1 = (0, 0, 1), z1 = (s1, -c1, 0)
+        r00, r01, r02 = c1 * T[0, 0] + s1 * T[1, 0], c1 * T[0, 1] + s1 * T[1, 1], c1 * T[0, 2] + s1 * T[1, 2]
+        r10, r11, r12 = T[2, 0], T[2, 1], T[2, 2]
+        r20, r21 = s1 * T[0, 0] - c1 * T[1, 0], s1 * T[0, 1] - c1 * T[1, 1]
+        x4, y4 = c1 * x5 + s1 * y5, z5 - d1  # frame 5's origin in frame 1 (its z1 part is d4)
+        for wrist in range(2 if a5 > 0.0 else 1):
+            t5 = a5 if wrist == 0 else -a5
+            s5, c5_ = math.sin(t5), math.cos(t5)
             if abs(s5) < SINGULAR_TOL:
                 t6 = theta6_ref
             else:
-                t6 = math.atan2(-(z1 @ R[:, 1]) / s5, (z1 @ R[:, 0]) / s5)
+                t6 = math.atan2(-r21 / s5, r20 / s5)
             c6, s6 = math.cos(t6), math.sin(t6)
-            Rz6 = np.array([[c6, s6, 0.0], [-s6, c6, 0.0], [0.0, 0.0, 1.0]])  # Rz(-t6)
-            c5_, s5_ = math.cos(t5), math.sin(t5)
-            Ry5 = np.array([[c5_, 0.0, s5_], [0.0, 1.0, 0.0], [-s5_, 0.0, c5_]])  # Ry(t5)
-            R234 = R_16 @ Rz6 @ Ry5
-            t234 = math.atan2(R234[1, 0], R234[0, 0])
-            z4_1 = np.array([math.sin(t234), -math.cos(t234), 0.0])  # z4 in frame 1
-            p4 = R_01.T @ (p5 - np.array([0.0, 0.0, p.d1])) - p.d5 * z4_1
-            x, y = p4[0], p4[1]
-            c3 = (x * x + y * y - p.a2**2 - p.a3**2) / (2.0 * p.a2 * p.a3)
+            # Rz(t234) = R_16 Rz(-t6) Ry(t5): its first column
+            m00 = r00 * c6 - r01 * s6
+            m10 = r10 * c6 - r11 * s6
+            col0 = m00 * c5_ - r02 * s5
+            col1 = m10 * c5_ - r12 * s5
+            t234 = math.atan2(col1, col0)
+            x, y = x4 - d5 * math.sin(t234), y4 + d5 * math.cos(t234)  # frame 4's origin: p5 - d5 z4
+            c3 = (x * x + y * y - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
             if abs(c3) > 1.0 + 1e-12:
                 continue
-            a3 = math.acos(min(1.0, max(-1.0, c3)))
-            for t3 in (a3, -a3) if a3 > 0.0 else (a3,):
-                t2 = math.atan2(y, x) - math.atan2(p.a3 * math.sin(t3), p.a2 + p.a3 * math.cos(t3))
-                rows.append((t1, t2, t3, t234 - t2 - t3, t5, t6))
-    theta = np.array(rows, dtype=float).reshape(-1, 6)
-    return wrap_angles(theta * p.signs)  # model angle = sign * DH angle (signs are +-1)
+            a3_ = math.acos(min(1.0, max(-1.0, c3)))
+            for elbow in range(2 if a3_ > 0.0 else 1):
+                t3 = a3_ if elbow == 0 else -a3_
+                t2 = math.atan2(y, x) - math.atan2(a3 * math.sin(t3), a2 + a3 * math.cos(t3))
+                thetas = (t1, t2, t3, t234 - t2 - t3, t5, t6)
+                for k in range(6):
+                    v = p[6 + k] * thetas[k]
+                    out[count, k] = math.pi - (math.pi - v) % (2.0 * math.pi)  # wrap to (-pi, pi]
+                count += 1
+    return count

@@ -384,13 +384,13 @@ def test_missing_resources_are_named(tmp_path):
 
 def test_irb4600_checks_its_urdf_against_errata_1(tmp_path, monkeypatch):
     """A shipped URDF whose wrist offset d4 is not ERRATA 1's 0.960 m is refused, not silently used."""
-    import ibvs_youla.model.arm as arm_module
+    import ibvs_youla.model.robots as robots_module
 
     text = urdf_path("abb_irb4600_45_205.urdf").read_text()
     assert text.count('<origin xyz="0 0 0.96" ') == 1
     edited = tmp_path / "abb_irb4600_45_205.urdf"
     edited.write_text(text.replace('<origin xyz="0 0 0.96" ', '<origin xyz="0 0 0.97" '))
-    monkeypatch.setattr(arm_module, "urdf_path", lambda name: edited)
+    monkeypatch.setattr(robots_module, "urdf_path", lambda name: edited)
     message = r"URDF geometry .*d4=0\.97.* differs from ERRATA 1 .*d4=0\.96"
     with pytest.raises(ModelLoadError, match=message) as info:
         Arm.irb4600()

@@ -264,3 +264,28 @@ def test_from_robot_refuses_unknown_keywords():
         Arm.from_robot("ur5", camera="tool0")
     with pytest.raises(InvalidParameterError, match="actuator"):
         Arm.from_robot("ur5", actuator="paper")  # the IRB 4600's actuator model only
+
+
+def test_an_arm_is_rebuilt_from_its_identity(arms, tmp_path):
+    """What a campaign's Dask worker does with a spec's arm: the same identity, hence the same arm."""
+    T_F_C = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, 0.5), np.array([0.0, 0.0, 0.04])).homogeneous
+    built = [
+        arms["kinova"],
+        Arm.irb4600("reflected"),
+        Arm.from_robot("panda", camera_frame="panda_hand", T_F_C=T_F_C, locked_joints={"panda_joint7": 0.3}),
+        arms["ur5"].with_hand_eye(arms["ur5"].T_E_C @ T_F_C).with_inertia_scale(1.5),
+    ]
+    for arm in built:
+        data = json.loads(json.dumps(arm.identity().to_dict()))  # through JSON, as a spec holds it
+        again = Arm.from_identity(data)
+        assert again.identity() == arm.identity(), arm.name
+        q = np.array(robots.get(arm.robot).q_home)[: arm.nq]
+        np.testing.assert_allclose(again.camera_pose(q), arm.camera_pose(q), rtol=0, atol=1e-15)
+        np.testing.assert_allclose(again.mass_matrix(q), arm.mass_matrix(q), rtol=1e-15, atol=0)
+    ur5 = arms["ur5"].identity().to_dict()
+    with pytest.raises(InvalidParameterError, match="urdf"):
+        Arm.from_identity({**ur5, "robot": None})
+    other = tmp_path / "other.urdf"
+    other.write_text(robots.urdf("ur5").read_text().replace("ur5", "ur5-copy"))
+    with pytest.raises(ModelLoadError, match="is not the one of the identity"):
+        Arm.from_identity({**ur5, "robot": None}, urdf=other)

@@ -61,7 +61,7 @@ from .._linalg import add_product
 from .._validation import as_array, as_pose, non_negative, positive, text
 from ..exceptions import InvalidArrayError, InvalidParameterError, ModelLoadError, UnreachablePoseError
 from . import robots
-from ._resources import example_robot_data_urdf, load_urdf_model, urdf_path
+from ._resources import load_urdf_model
 from .actuators import ActuatorParameters
 from .chain import joint_coordinate_model, joint_kinds, mimic_joints, reduce_to_chain
 from .ik import (
@@ -352,9 +352,7 @@ class Arm:
             armature, damping = ActuatorParameters().joint_terms(actuator)
             options.setdefault("armature", np.full(6, armature))
             options.setdefault("damping", np.full(6, damping))
-            path = urdf_path(entry.urdf)
-        else:
-            path = example_robot_data_urdf(entry.urdf)
+        path = robots.urdf(name)
         if "camera_frame" not in overrides:
             options["camera_frame"] = entry.camera_frame
             options.setdefault("flange_frame", entry.flange_frame)
@@ -442,12 +440,13 @@ class Arm:
         """What tells this arm apart from others, as plain data (:class:`~.robots.ArmIdentity`).
 
         Equal for two arms built the same way (same robot or URDF bytes, mount, locked joints,
-        actuator terms, limits, inertia scale and hand-eye transform), so a campaign spec can
-        hold it and keys of different arms never collide.
+        actuator terms, limits, inertia scale and hand-eye transform; the transforms rounded to 12
+        decimals, so that round-off does not tell arms apart), so a campaign spec can hold it and
+        keys of different arms never collide.
         """
 
-        def rows(T: np.ndarray) -> tuple[tuple[float, ...], ...]:
-            return tuple(tuple(float(x) for x in row) for row in T)
+        def rows(T: np.ndarray) -> tuple[tuple[float, ...], ...]:  # 12 decimals: round-off is not identity
+            return tuple(tuple(round(float(x), 12) + 0.0 for x in row) for row in T)  # + 0.0: no -0.0
 
         return robots.ArmIdentity(
             robot=self.robot,
@@ -463,6 +462,59 @@ class Arm:
             tau_max=tuple(self.tau_max.tolist()),
             inertia_scale=self._inertia_scale,
         )
+
+    @classmethod
+    def from_identity(
+        cls, identity: robots.ArmIdentity | Mapping[str, Any], urdf: str | Path | None = None
+    ) -> Arm:
+        """The arm an :meth:`identity` describes (e.g. on a Dask worker, from a campaign spec).
+
+        A named robot is rebuilt from the registry; an arm from a URDF needs its file, ``urdf``,
+        whose SHA-256 must be the identity's. Mount, locked joints, actuator terms, limits, inertia
+        scale and hand-eye transform are applied, so ``Arm.from_identity(arm.identity()).identity()
+        == arm.identity()``.
+
+        Raises:
+            InvalidParameterError: not an identity, or a URDF arm without ``urdf``.
+            ModelLoadError: the file's SHA-256 differs from the identity's (another robot
+                description), or it cannot be loaded.
+        """
+        if isinstance(identity, Mapping):
+            identity = robots.ArmIdentity.from_dict(identity)
+        if not isinstance(identity, robots.ArmIdentity):
+            raise InvalidParameterError(
+                "identity", type(identity).__name__, "an ArmIdentity or its to_dict() data"
+            )
+        options: dict[str, Any] = {
+            "camera_frame": identity.camera_frame,
+            "T_F_C": None if np.array_equal(identity.T_F_C, np.eye(4)) else np.array(identity.T_F_C),
+            "flange_frame": identity.flange_frame,
+            "locked_joints": dict(identity.locked_joints),
+            "armature": np.array(identity.armature),
+            "damping": np.array(identity.damping),
+            "dq_max": np.array(identity.dq_max),
+            "tau_max": np.array(identity.tau_max),
+        }
+        if identity.robot is not None:
+            path = robots.urdf(identity.robot)
+        elif urdf is None:
+            raise InvalidParameterError("urdf", None, "the URDF file of an arm that is not a named robot")
+        else:
+            path = Path(urdf)
+        if identity.urdf_sha256 is not None and path.is_file() and _file_sha256(path) != identity.urdf_sha256:
+            raise ModelLoadError(
+                path,
+                f"URDF {str(path)!r} is not the one of the identity (SHA-256 {identity.urdf_sha256[:12]}...)",
+            )
+        if identity.robot is not None:
+            arm = cls.from_robot(identity.robot, **options)
+        else:
+            arm = cls.from_urdf(path, **options)
+        if identity.inertia_scale != 1.0:
+            arm = arm.with_inertia_scale(identity.inertia_scale)
+        if arm.identity().T_E_C != tuple(identity.T_E_C):
+            arm = arm.with_hand_eye(np.array(identity.T_E_C))
+        return arm
 
     def with_inertia_scale(self, factor: float) -> Arm:
         """A new Arm whose link masses and rotational inertias are multiplied by ``factor``.

@@ -7,33 +7,26 @@ example-robot-data (a dependency), except the IRB 4600, whose URDF ships with ib
 
 **Default camera mount.** On the tool flange, the optical axis (z of the camera frame) along
 the tool's approach axis, the optical centre at the flange's origin: ``T_F_C`` from the mount
-frame F to the camera {C}:
+frame F to the camera {C}.
 
-======== ==================== ========================== ==========================================
-name     mount frame F        T_F_C                       locked joints (off the chain, at neutral)
-======== ==================== ========================== ==========================================
-irb4600  ``camera``           identity (the URDF's camera none
-                              link, Rz(pi) on the flange,
-                              ERRATA 2)
-ur3/5/10 ``tool0``            identity (z out of the      none
-                              flange)
-panda    ``panda_link8``      identity (z out of the      ``panda_finger_joint1`` and ``2``
-                              flange)                     (the hand's fingers)
-xarm7    ``link_eef``         identity                    none
-z1       ``link06``           Ry(pi/2) (the flange's      ``jointGripper``
-                              approach axis is x)
-kinova   ``j2s6s200_end_       Ry(pi/2) (approach along    none (the fingers are fixed joints)
-         effector``           the frame's x)
-======== ==================== ========================== ==========================================
+| name | mount frame F | T_F_C | locked joints (off the chain, at neutral) |
+| --- | --- | --- | --- |
+| irb4600 | ``camera`` | identity (the URDF's camera link, Rz(pi) on the flange, ERRATA 2) | none |
+| ur3, ur5, ur10 | ``tool0`` | identity (z out of the flange) | none |
+| panda | ``panda_link8`` | identity (z out of the flange) | the hand's two fingers |
+| xarm7 | ``link_eef`` | identity (z out of the flange) | none |
+| z1 | ``link06`` | Ry(pi/2) (the flange's approach axis is its x) | ``jointGripper`` |
+| kinova | ``j2s6s200_end_effector`` | Ry(pi/2) (approach along the frame's x) | none (fixed fingers) |
 
 **Limits and dynamics.** Joint position, speed and torque limits are the URDF's ``<limit>``; a
 continuous joint has no position limit (-inf, +inf); a joint of the chain without a finite
 speed or torque limit is refused (``ModelLoadError``) unless the caller gives ``dq_max`` /
 ``tau_max``. Armature is zero and damping the URDF's ``<dynamics damping>`` (zero when absent:
 the UR and Kinova files; 0.003 N m s/rad on the Panda, 1 to 10 on the xArm7 and Z1), unless the
-caller gives them; the URDF's ``<dynamics friction>`` (Coulomb) is not applied by the arm (the
-plant's :class:`~ibvs_youla.simulation.disturbances.Disturbances` model joint friction). The
-IRB 4600 keeps the paper's actuator terms (Table A4, :class:`ActuatorParameters`).
+caller gives them (the xArm7's damping on its light wrist needs a joint rate of about 5.2 kHz on
+the dynamic plant, which ``simulate`` says); the URDF's ``<dynamics friction>`` (Coulomb) is not
+applied by the arm (the plant's ``Disturbances`` model joint friction). The IRB 4600 keeps the
+paper's actuator terms (Table A4, :class:`~ibvs_youla.model.actuators.ActuatorParameters`).
 
 **Home configuration** ``q_home``: within the limits, away from singularities (smallest singular
 value of the camera Jacobian >= 0.12), the camera above the base plane looking down or forward:
@@ -48,13 +41,16 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .._validation import one_of
+from ..exceptions import InvalidParameterError
+from ._resources import example_robot_data_urdf, urdf_path
 
-__all__ = ["DEFAULT_ROBOT", "ArmIdentity", "Robot", "get", "names"]
+__all__ = ["DEFAULT_ROBOT", "ArmIdentity", "Robot", "get", "names", "urdf"]
 
 DEFAULT_ROBOT = "irb4600"
 _PI = math.pi
@@ -192,6 +188,12 @@ def get(name: str) -> Robot:
     return _ROBOTS[one_of(name, "robot", names())]
 
 
+def urdf(name: str) -> Path:
+    """The URDF file of robot ``name`` (example-robot-data's, or the IRB 4600's shipped one)."""
+    entry = get(name)
+    return urdf_path(entry.urdf) if entry.shipped else example_robot_data_urdf(entry.urdf)
+
+
 @dataclass(frozen=True)
 class ArmIdentity:
     """What tells two arms apart, as plain data (``arm.identity()``; a campaign spec's arm).
@@ -223,6 +225,27 @@ class ArmIdentity:
     dq_max: tuple[float, ...]
     tau_max: tuple[float, ...]
     inertia_scale: float = 1.0
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> ArmIdentity:
+        """The identity of :meth:`to_dict`'s data.
+
+        Raises:
+            InvalidParameterError: missing or unknown keys.
+        """
+        names = set(cls.__dataclass_fields__)
+        if not isinstance(data, Mapping) or set(data) != names:
+            got = sorted(data) if isinstance(data, Mapping) else type(data).__name__
+            raise InvalidParameterError("identity", got, f"a mapping with the keys {sorted(names)}")
+
+        def rows(value: Any) -> Any:
+            return tuple(
+                tuple(float(x) for x in row) if isinstance(row, (list, tuple)) else row for row in value
+            )
+
+        return cls(
+            **{key: rows(value) if isinstance(value, (list, tuple)) else value for key, value in data.items()}
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready plain data (lists, floats, strings), keys sorted."""

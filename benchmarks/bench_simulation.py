@@ -33,6 +33,8 @@ seeded scenario (``scenarios.for_arm(arm, seed=0)``), measured in the same run:
   seconds: ``realtime_factor`` and ``cost_vs_irb4600``, its median wall time over the IRB 4600's
   (target: at most 1.5).
 
+Their repeats are interleaved, a round running every robot's case once.
+
 ``realtime_factor`` = simulated time / median wall time of ``simulate(...)`` (arm and camera
 built beforehand; the run's own set-up is included). The cost split is the servo loop's own
 phase timing of the median run (``result.metadata["phase_seconds"]``): the plant step (RK4 of
@@ -237,7 +239,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
 
 
 def _robot_rows(args: argparse.Namespace) -> dict[str, dict[str, Any]]:
-    """The paper's controller and classical IBVS on each robot of ROBOTS (module docstring)."""
+    """The paper's controller and classical IBVS on each robot of ROBOTS (module docstring).
+
+    The repeats are interleaved (each round runs every robot's case once), so that a change of the
+    machine's load between the rounds shows in every robot's times alike, not in one robot's ratio.
+    """
+    runs: dict[tuple[str, str], Any] = {}
     rows: dict[str, dict[str, Any]] = {}
     for name in ROBOTS:
         arm = Arm.from_robot(name)
@@ -249,17 +256,27 @@ def _robot_rows(args: argparse.Namespace) -> dict[str, dict[str, Any]]:
         ):
             run = partial(ibvs_youla.simulate, controller=method, plant=plant, settings=settings, **case)
             run(duration=0.05)  # warm-up (the compiled kernels of this arm's IK)
-            walls, result = _time(args.repeats, partial(run, duration=duration))
-            wall = float(np.median(walls))
-            rows[name][label] = {
-                "realtime_factor": duration / wall,
-                "wall_median_s": wall,
-                "wall_s": walls,
-                "status": result.metadata["status"],
-                "update_time_median_us": float(np.median(result.update_time) * 1e6),
-                "split": _split(result),
-            }
-            _print(f"{name}/{label}", duration / wall, wall, duration, rows[name][label])
+            runs[(name, label)] = (partial(run, duration=duration), duration)
+    walls: dict[tuple[str, str], list[float]] = {key: [] for key in runs}
+    results: dict[tuple[str, str], list[Any]] = {key: [] for key in runs}
+    for _ in range(args.repeats):
+        for key, (run, _duration) in runs.items():
+            t0 = perf_counter()
+            results[key].append(run())
+            walls[key].append(perf_counter() - t0)
+    for (name, label), (_run, duration) in runs.items():
+        times = walls[(name, label)]
+        result = results[(name, label)][int(np.argsort(times)[len(times) // 2])]
+        wall = float(np.median(times))
+        rows[name][label] = {
+            "realtime_factor": duration / wall,
+            "wall_median_s": wall,
+            "wall_s": times,
+            "status": result.metadata["status"],
+            "update_time_median_us": float(np.median(result.update_time) * 1e6),
+            "split": _split(result),
+        }
+        _print(f"{name}/{label}", duration / wall, wall, duration, rows[name][label])
     for row in rows.values():
         row["classical"]["cost_vs_irb4600"] = (
             row["classical"]["wall_median_s"] / rows["irb4600"]["classical"]["wall_median_s"]

@@ -289,3 +289,15 @@ def test_an_arm_is_rebuilt_from_its_identity(arms, tmp_path):
     other.write_text(robots.urdf("ur5").read_text().replace("ur5", "ur5-copy"))
     with pytest.raises(ModelLoadError, match="is not the one of the identity"):
         Arm.from_identity({**ur5, "robot": None}, urdf=other)
+
+
+def test_a_continuous_joint_without_speed_and_torque_limits_needs_them_from_the_caller(tmp_path):
+    """A URDF's continuous joint may omit <limit>: no position limit (-inf, +inf), and its speed and
+    torque limits are the caller's (dq_max, tau_max), else the arm is refused naming the joint."""
+    path = _chain_urdf(tmp_path, [("revolute", "")] * 2 + [("continuous", "")] + [("revolute", "")] * 3)
+    with pytest.raises(ModelLoadError, match=r"joint 'j3' velocity limit: received \[inf\].*dq_max=") as e:
+        Arm.from_urdf(path, camera_frame="link_6")
+    assert e.value.element == "joint 'j3' velocity limit"
+    arm = Arm.from_urdf(path, camera_frame="link_6", dq_max=np.full(6, 2.0), tau_max=np.full(6, 50.0))
+    assert arm.joint_kinds[2] == "continuous" and np.isinf(arm.q_min[2]) and np.isinf(arm.q_max[2])
+    np.testing.assert_allclose(arm.dq_max, 2.0)

@@ -204,3 +204,23 @@ def test_the_run_figures_show_every_joint_of_a_seven_joint_arm(joint_limit_case)
     assert [ax.get_ylabel() for ax in visible] == [f"q{j} [deg]" for j in range(1, 8)]
     speeds = plot_joint_speeds_torques(result, panda)
     assert len(speeds.axes) == 14  # seven rows: speed and torque
+
+
+def test_the_outer_loop_on_a_9x7_jacobian_gives_the_self_motion_no_gain(arms):
+    """Eq. (57) on a redundant arm (docs/redundancy.md): the zero singular value of J (9 x 7) gets gain
+    0, so J^+ e has no component along the self-motion, and the filter runs on seven channels."""
+    from ibvs_youla.control.outer import OuterLoopDesign
+
+    panda = arms["panda"]
+    scenario = iy.scenarios.for_arm(panda, seed=0)
+    eye = iy.EyeInHand(panda, iy.StereoCamera.zed2(mode="VGA"), scenario.markers_O)
+    J = eye.jacobian(scenario.q_start)
+    outer = OuterLoopDesign().runtime(0.01, n_joints=7)
+    e = eye.features(scenario.q_target) - eye.features(scenario.q_start)
+    q_fb = outer.update(e, J)
+    svd = outer.last_decomposition
+    assert svd.sigma[-1] < 1e-12 * svd.sigma[0] and svd.gains[-1] == 0.0
+    N = np.eye(7) - np.linalg.pinv(J) @ J
+    step = svd.pinv @ e
+    assert np.linalg.norm(N @ step) < 1e-9 * np.linalg.norm(step)
+    assert q_fb.shape == (7,) and np.linalg.norm(N @ q_fb) < 1e-9 * np.linalg.norm(q_fb)

@@ -124,11 +124,32 @@ def simulation(r: Report) -> str:
             f"{_met(met.get('classical', {}).get(name))} | {_num(split['dynamics_us_per_step'])} | "
             f"{_num(split['outer_us_per_frame'])} | {_num(split['joint_control_us_per_step'])} |"
         )
+    robot_met = met.get("robots", {})
+    for name, row in r.get("robots", {}).items():
+        paper, classical, ok = row["paper"], row["classical"], robot_met.get(name, {})
+        rows.append(
+            f"| {name} ({row['n_joints']} joints, IK {row['ik']}), ff+fb adaptive, dynamic arm, "
+            f"1 kHz / 100 Hz | **{_num(paper['realtime_factor'])}x** | >= 20x {_met(ok.get('paper'))} | "
+            + _split_cells(paper["split"])
+        )
+        rows.append(
+            f"| {name}, ibvs-current, kinematic arm, 25 Hz | **{_num(classical['realtime_factor'], 0)}x** "
+            f"({_num(classical['cost_vs_irb4600'], 2)}x the IRB 4600's wall time) | <= 1.5x the IRB "
+            f"4600's {_met(ok.get('classical'))} | " + _split_cells(classical["split"])
+        )
     settings = r["settings"]
     return (
         "\n".join(rows)
         + f"\n\nMedian of {settings['repeats']} runs of {settings['duration_s']:g} s (paper scenarios) and "
         f"{settings.get('classical_duration_s', 20):g} s (classical IBVS). Measured {_when(r)}.\n"
+    )
+
+
+def _split_cells(split: dict[str, Any]) -> str:
+    """The plant, frame and tick-control cells of a run's split."""
+    return (
+        f"{_num(split['dynamics_us_per_step'])} | {_num(split['outer_us_per_frame'])} | "
+        f"{_num(split['joint_control_us_per_step'])} |"
     )
 
 
@@ -337,6 +358,20 @@ def targets(reports: dict[str, Report | None]) -> str:
             rows.append(
                 f"| classical IBVS, {name}, 25 Hz: >= 1,000x | {_num(c['realtime_factor'], 0)}x | "
                 f"{_met(c['realtime_factor'] >= 1000)} | {load(sim)} |"
+            )
+        robots = {n: r for n, r in sim.get("robots", {}).items() if n != "irb4600"}
+        if robots:
+            factors = {n: r["paper"]["realtime_factor"] for n, r in robots.items()}
+            costs = {n: r["classical"]["cost_vs_irb4600"] for n, r in robots.items()}
+            rows.append(
+                "| the paper's controller on other arms, dynamic, 1 kHz / 100 Hz: >= 20x real time | "
+                + ", ".join(f"{n} {_num(v)}x" for n, v in factors.items())
+                + f" | {_met(min(factors.values()) >= 20)} | {load(sim)} |"
+            )
+            rows.append(
+                "| classical IBVS on other arms, kinematic, 25 Hz: <= 1.5x the IRB 4600's cost | "
+                + ", ".join(f"{n} {_num(v, 2)}x" for n, v in costs.items())
+                + f" | {_met(max(costs.values()) <= 1.5)} | {load(sim)} |"
             )
     peer = reports.get("peers")
     if peer is not None and peer.get("ratios"):

@@ -88,6 +88,14 @@ def test_simulation_benchmark_writes_realtime_factors(tmp_path):
     assert all(finite_positive(c["realtime_factor"]) for c in saved["classical"].values())
     met = saved["targets"]["met"]
     assert met["two-rate"]["paper-1"] == (saved["realtime_factor"]["paper-1"]["two-rate"] >= 50.0)
+    assert set(saved["robots"]) == {"irb4600", "ur5", "panda"}
+    for name, row in saved["robots"].items():
+        assert row["paper"]["status"] == row["classical"]["status"] == "complete", name
+        assert finite_positive(row["paper"]["realtime_factor"]) and finite_positive(
+            row["classical"]["cost_vs_irb4600"]
+        )
+    assert saved["robots"]["irb4600"]["classical"]["cost_vs_irb4600"] == 1.0
+    assert met["robots"]["panda"]["paper"] == (saved["robots"]["panda"]["paper"]["realtime_factor"] >= 20.0)
 
 
 @pytest.mark.slow

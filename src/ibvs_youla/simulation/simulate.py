@@ -247,6 +247,8 @@ def simulate(
         model_arm = world.arm if beliefs.arm is None else beliefs.arm
         if settings.model_inertia_scale != 1.0:
             model_arm = model_arm.with_inertia_scale(settings.model_inertia_scale)
+    if settings.secondary_task is not None:
+        _check_secondary_task(settings, ctrl, model_arm)
     chain = actuation_chain(
         ctrl.command_type,
         world.plant,
@@ -254,6 +256,7 @@ def simulate(
         q_start=scenario.q_start,
         tau_in=settings.tau_in,
         dt=world.dt,
+        secondary_task=settings.secondary_task,
     )
     joints = model_arm is not None
     task = ServoTask(
@@ -399,6 +402,26 @@ def _controller(controller: Any, adaptive: bool, settings: SimulationSettings) -
     return controller
 
 
+def _check_secondary_task(settings: SimulationSettings, ctrl: Controller, arm: Arm | None) -> None:
+    """A secondary task needs a redundant arm and a controller whose camera twist the actuation converts."""
+    task = settings.secondary_task.to_dict()  # type: ignore[union-attr]
+    if arm is None or not arm.redundant:
+        where = "the free-flying camera" if arm is None else f"{arm.name!r} ({arm.nq} joints)"
+        raise InvalidParameterError(
+            "settings.secondary_task",
+            task,
+            f"None on {where}: a secondary task acts in the null space of J_C, which needs more than "
+            "six joints",
+        )
+    if CommandType.parse(ctrl.command_type) is not CommandType.CAMERA_TWIST:
+        raise InvalidParameterError(
+            "settings.secondary_task",
+            task,
+            f"None for {ctrl.name!r}, which commands {CommandType.parse(ctrl.command_type).value}: the task "
+            "is added where a camera twist becomes joint velocities (the twist-commanding methods)",
+        )
+
+
 def _no_paper_gains(settings: SimulationSettings, who: str) -> None:
     """The paper controller's gains in ``settings`` apply to the named paper controllers only."""
     default = YoulaSettings()
@@ -464,6 +487,8 @@ def _arm_world(
             f">= 1/tau_in = {1.0 / settings.tau_in:g} Hz on the dynamic arm: the inner loop (Eq. (33)-(46)) "
             "runs at the joint rate and needs a period <= tau_in",
         )
+    if plant == "dynamic" and np.any(arm.damping > 0.0):
+        _check_damping_is_not_stiff(arm, scenario.q_true_start, settings)
     if plant == "dynamic":
         saturate = settings.saturate or disturbances.limit_scale is not None
         world_plant: Any = ArmPlant(
@@ -485,6 +510,31 @@ def _arm_world(
         arm.camera_pose(scenario.q_true_start),
         arm.camera_pose(scenario.q_target),
     )
+
+
+RK4_REAL_STABILITY = 2.785  # RK4 is stable for dt * lambda <= 2.785 on the negative real axis
+
+
+def _check_damping_is_not_stiff(arm: Arm, q: np.ndarray, settings: SimulationSettings) -> None:
+    """Refuse a joint period at which RK4 cannot integrate the arm's damping (it would diverge at once).
+
+    The viscous damping B dq with the mass matrix M(q) makes the joint velocities decay at the
+    rates of the eigenvalues of M(q)^-1 B (the stiffest, a light link with a large URDF damping:
+    the xArm7's wrist, 1.4e4 1/s); RK4 at period dt is stable for rate * dt <= 2.785. Checked at
+    the start configuration.
+    """
+    M = arm.mass_matrix(q)
+    rate = float(np.linalg.eigvals(np.linalg.solve(M, np.diag(arm.damping))).real.max())  # [1/s]
+    if rate * settings.dt > RK4_REAL_STABILITY:
+        needed = rate / RK4_REAL_STABILITY
+        raise InvalidParameterError(
+            "settings.joint_rate_hz",
+            settings.joint_rate_hz,
+            f">= {needed:.4g} Hz for {arm.name!r} on the dynamic arm: its joint damping decays the joint "
+            f"speeds at up to {rate:.4g} 1/s at the start (light links, large damping), which fixed-step RK4 "
+            f"integrates only with a period below {RK4_REAL_STABILITY} / {rate:.4g} s; or a smaller damping "
+            "(the arm's damping= argument)",
+        )
 
 
 def _free_camera_world(scenario: Scenario, arm: Arm | None, settings: SimulationSettings) -> _World:

@@ -134,6 +134,8 @@ def test_joint_limit_avoidance_keeps_the_panda_inside_its_limits(joint_limit_cas
         assert result.status == "complete" and mm < 0.1 and deg < 0.01
     # the option alone changes the run, and the run's spec records it (and only then)
     assert not np.array_equal(plain.q_true, avoided.q_true)
+    # the compiled frame path knows no null-space task: a run with one takes the plug-in loop
+    assert (plain.metadata["loop"], avoided.metadata["loop"]) == ("compiled", "plug-in")
     assert "secondary_task" not in plain.metadata["spec"]["settings"]
     assert avoided.metadata["spec"]["settings"]["secondary_task"] == {
         "kind": "joint_limit_avoidance",

@@ -98,6 +98,11 @@ class TwistToJointVelocity:
         """The pseudo-inverse of J_C near singularities."""
         return self._policy
 
+    @property
+    def secondary_task(self) -> JointLimitAvoidance | None:
+        """The null-space task of a redundant arm, or None."""
+        return self._secondary
+
     def integrate_into(self, integrator: VelocityToPosition) -> None:
         """Integrate each dq_ref for ``integrator`` (the next link) in the same compiled call.
 

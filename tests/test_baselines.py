@@ -18,6 +18,8 @@ from ibvs_youla import controllers, scenarios
 from ibvs_youla.exceptions import InvalidParameterError
 
 BASELINES = ("ibvs-current", "ibvs-desired", "ibvs-mean", "pbvs", "2.5d", "hybrid", "mpc-ibvs")
+# The field's answers to the retreat and the local minima of point IBVS (their own test files)
+FEATURE_LAWS = ("ibvs-polar",)
 # ||e(10 s)|| / ||e(0)|| on physical-2, dynamic arm, default settings (measured)
 PHYSICAL_2_RATIO = {
     "ibvs-current": 7.33e-3,
@@ -31,8 +33,8 @@ PHYSICAL_2_RATIO = {
 
 
 def test_every_baseline_is_registered_with_a_twist_command():
-    assert controllers.names() == ("fb", "ff+fb", *BASELINES)
-    for name in BASELINES:
+    assert controllers.names() == ("fb", "ff+fb", *BASELINES, *FEATURE_LAWS)
+    for name in BASELINES + FEATURE_LAWS:
         ctrl = controllers.make(name)
         assert ctrl.command_type is controllers.CommandType.CAMERA_TWIST and ctrl.name == name
         assert controllers.describe()[name]

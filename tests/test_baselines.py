@@ -19,7 +19,7 @@ from ibvs_youla.exceptions import InvalidParameterError
 
 BASELINES = ("ibvs-current", "ibvs-desired", "ibvs-mean", "pbvs", "2.5d", "hybrid", "mpc-ibvs")
 # The field's answers to the retreat and the local minima of point IBVS (their own test files)
-FEATURE_LAWS = ("ibvs-polar", "ibvs-partitioned")
+FEATURE_LAWS = ("ibvs-polar", "ibvs-partitioned", "ibvs-moments")
 # ||e(10 s)|| / ||e(0)|| on physical-2, dynamic arm, default settings (measured)
 PHYSICAL_2_RATIO = {
     "ibvs-current": 7.33e-3,

@@ -354,6 +354,10 @@ def test_the_whole_suite_outcomes(capsys, tmp_path):
     assert table in CONTROLLERS_PAGE.read_text(encoding="utf-8")  # the docs page's table is this output
     outcome = {(t["task"], r["controller"]): r for t in report["tasks"] for r in t["rows"]}
     failed = {key: r["outcome"] for key, r in outcome.items() if r["outcome"] != "converged"}
+    # the moment features refuse the face-on square (isotropic moments) on every task
+    assert {key: failed.pop(key) for key in list(failed) if key[1] == "ibvs-moments"} == {
+        (t.name, "ibvs-moments"): "rejected" for t in suites.GANS_2003
+    }
     assert failed == {
         ("gans-rz-150", "ibvs-desired"): "markers_lost",
         ("gans-rz-180", "ibvs-current"): "estimate_failed",
@@ -367,7 +371,9 @@ def test_the_whole_suite_outcomes(capsys, tmp_path):
     assert general["pbvs"]["path_ratio"] == pytest.approx(1.0, abs=1e-3)
     assert general["ibvs-desired"]["feature_excursion"] == pytest.approx(13.777953, rel=1e-6)
     assert all(
-        r["feature_excursion"] < suites.NOMINAL_HALF_VIEW for n, r in general.items() if n != "ibvs-desired"
+        r["feature_excursion"] < suites.NOMINAL_HALF_VIEW
+        for n, r in general.items()
+        if n not in ("ibvs-desired", "ibvs-moments")  # the moments did not run
     )
     assert (tmp_path / "gans-general" / "table.md").is_file()
 

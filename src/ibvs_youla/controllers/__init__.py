@@ -11,12 +11,13 @@ at the current, desired or mean features (Chaumette & Hutchinson 2006), PBVS, 2.
 servoing (Malis, Chaumette & Boudet 1999), hybrid switched IBVS/PBVS (Gans & Hutchinson
 2007) and MPC-IBVS (a QP per frame through qpsolvers); and the field's answers to the
 retreat and the local minima of point IBVS: polar-coordinate IBVS (Iwatsuki & Okiyama 2005)
-and XY/Z-partitioned IBVS (Corke & Hutchinson 2001).
+XY/Z-partitioned IBVS (Corke & Hutchinson 2001) and image-moment IBVS (Tahri & Chaumette
+2005).
 
 >>> from ibvs_youla import controllers
 >>> controllers.names()  # doctest: +NORMALIZE_WHITESPACE
 ('fb', 'ff+fb', 'ibvs-current', 'ibvs-desired', 'ibvs-mean', 'pbvs', '2.5d', 'hybrid', 'mpc-ibvs',
- 'ibvs-polar', 'ibvs-partitioned')
+ 'ibvs-polar', 'ibvs-partitioned', 'ibvs-moments')
 >>> controllers.make("ff+fb", adaptive=False).command_type.value
 'joint_position'
 """
@@ -142,7 +143,7 @@ register(
 
 
 # The modules of the methods the paper compares itself with, in registration order.
-_BASELINES = ("ibvs", "pbvs", "two_half_d", "hybrid", "mpc_ibvs", "polar", "partitioned")
+_BASELINES = ("ibvs", "pbvs", "two_half_d", "hybrid", "mpc_ibvs", "polar", "partitioned", "moments")
 
 
 def _register_baselines() -> None:

@@ -17,7 +17,7 @@ form: a sum of the point rows, not the form of a region, whose area element adds
     m_wz = i m_(i-1,j+1) - j m_(i+1,j-1)
 
 (each from d(x^i y^j)/dt = i x^(i-1) y^j x' + j x^i y^(j-1) y' with the point rows
-x' = [-1/Z, 0, x/Z, x y, -(1 + x^2), y] [v; w], y' = [0, -1/Z, y/Z, 1 + y^2, -x y, -x] [v; w];
+``x' = [-1/Z, 0, x/Z, x y, -(1 + x^2), y] [v; w]``, ``y' = [0, -1/Z, y/Z, 1 + y^2, -x y, -x] [v; w]``;
 terms with a negative index have a zero factor). The centred moments follow by the chain rule of
 mu_ij = sum_(k<=i, l<=j) C(i,k) C(j,l) (-x_g)^(i-k) (-y_g)^(j-l) m_kl:
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -341,6 +342,37 @@ def test_rotation_of_pi_pinned_outcomes():
     )
 
 
+# Cells whose numbers change with the BLAS kernel's rounding (OpenBLAS picks it per CPU): MPC-IBVS
+# retreats 24 m about the optical axis, the QP's active set changes with the last bits, and the time
+# and path move by ~2-4 % (27.1 s, 24.25 m on the Haswell kernel; 27.6 s, 25.17 m on SkylakeX), as
+# docs/controllers.md says under the table. Their outcome must match; their numbers within 5 %.
+KERNEL_SENSITIVE_CELLS = {("gans-rz-180", "mpc-ibvs")}
+
+
+def _cells(table: str) -> tuple[list[str], dict[str, list[str]]]:
+    lines = [line.strip().strip("|").split("|") for line in table.strip().splitlines()]
+    header = [c.strip() for c in lines[0]]
+    return header, {row[0].strip(): [c.strip() for c in row] for row in lines[2:]}
+
+
+def _assert_documented(table: str, page: str) -> None:
+    """The page holds this table: every cell equal, the kernel-sensitive ones to 5 % in their numbers."""
+    header, rows = _cells(table)
+    start = page.index("| " + " | ".join(header) + " |")
+    doc_header, doc_rows = _cells(page[start:].split("\n\n", 1)[0])
+    assert doc_header == header and list(doc_rows) == list(rows)
+    for task, cells in rows.items():
+        for controller, got, documented in zip(header, cells, doc_rows[task], strict=True):
+            if (task, controller) not in KERNEL_SENSITIVE_CELLS:
+                assert got == documented, (task, controller)
+                continue
+            number = r"[-+]?\d+\.?\d*"
+            assert re.sub(number, "#", got) == re.sub(number, "#", documented), (task, controller)
+            values = [float(v) for v in re.findall(number, got)]
+            expected = [float(v) for v in re.findall(number, documented)]
+            assert values == pytest.approx(expected, rel=0.05), (task, controller)
+
+
 def test_the_whole_suite_outcomes(capsys, tmp_path):
     """ibvs-desired loses the markers from 150 deg on and sends the points to |x| = 13.8 in the
     general motion; only the mean and the pose-based laws (PBVS, 2.5-D) turn about the optical axis
@@ -351,7 +383,7 @@ def test_the_whole_suite_outcomes(capsys, tmp_path):
     assert report["controllers"] == list(suites.twist_controllers())
     assert (tmp_path / "suite.md").read_text() in text
     table = (tmp_path / "suite.md").read_text().split("\n\n", 1)[1]
-    assert table in CONTROLLERS_PAGE.read_text(encoding="utf-8")  # the docs page's table is this output
+    _assert_documented(table, CONTROLLERS_PAGE.read_text(encoding="utf-8"))  # the docs page's table
     outcome = {(t["task"], r["controller"]): r for t in report["tasks"] for r in t["rows"]}
     failed = {key: r["outcome"] for key, r in outcome.items() if r["outcome"] != "converged"}
     # the moment features refuse the face-on square (isotropic moments) on every task

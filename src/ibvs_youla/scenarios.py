@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from ._reproducible import matmul
 from ._validation import as_array, as_pose, one_of
 from .estimation.stereo_pose import check_marker_geometry
 from .exceptions import InvalidParameterError, JointLimitError
@@ -279,7 +280,8 @@ def place_markers(T_O_C: Any, rays_xy: Any = MARKER_RAYS_XY, depths: Any = (2.0,
     if np.any(depths <= 0.0):
         raise InvalidParameterError("depths", depths.tolist(), "depths > 0 m (points in front of the camera)")
     P_C = depths[:, None] * np.column_stack([rays_xy, np.ones(len(depths))])
-    return P_C @ T_O_C[:3, :3].T + T_O_C[:3, 3]
+    # in a fixed order of operations (not the BLAS's): campaign cases store these numbers
+    return matmul(P_C, T_O_C[:3, :3].T) + T_O_C[:3, 3]
 
 
 def _check_index(index: Any) -> int:

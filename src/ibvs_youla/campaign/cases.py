@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 
 from .._memory import fits_in_memory
+from .._reproducible import matmul, norm3
 from .._validation import one_of, positive
 from ..exceptions import InvalidParameterError
 
@@ -102,8 +103,8 @@ def _rotation_deg(R: np.ndarray) -> float:
 
 def _difficulty(T_start: np.ndarray, T_target: np.ndarray) -> dict[str, float]:
     return {
-        "rotation_deg": _rotation_deg(T_start[:3, :3].T @ T_target[:3, :3]),
-        "translation_m": float(np.linalg.norm(T_start[:3, 3] - T_target[:3, 3])),
+        "rotation_deg": _rotation_deg(matmul(T_start[:3, :3].T, T_target[:3, :3])),
+        "translation_m": norm3(T_start[:3, 3] - T_target[:3, 3]),
     }
 
 
@@ -198,7 +199,7 @@ def _arm_case(
             if not all(views):
                 continue
         else:  # projected whatever the sign, but never at ~zero depth or disparity
-            P = [(markers - T[:3, 3]) @ T[:3, :3] for T in (T_start, T_target)]
+            P = [matmul(markers - T[:3, 3], T[:3, :3]) for T in (T_start, T_target)]
             if min(np.abs(p[:, 2]).min() for p in P) < 0.2:
                 continue
         scenario = {
@@ -215,13 +216,13 @@ def _arm_case(
 # ----------------------------------------------------------------------------- free camera
 def _uniform_ball(rng: np.random.Generator, radius: float) -> np.ndarray:
     direction = rng.normal(size=3)
-    direction /= np.linalg.norm(direction)
+    direction /= norm3(direction)
     return radius * rng.random() ** (1.0 / 3.0) * direction
 
 
 def _random_axis(rng: np.random.Generator) -> np.ndarray:
     axis = rng.normal(size=3)
-    return axis / np.linalg.norm(axis)
+    return axis / norm3(axis)
 
 
 def _free_offset(rng: np.random.Generator, difficulty: float) -> np.ndarray:
@@ -240,7 +241,9 @@ def _roll_offset(rng: np.random.Generator, difficulty: float) -> np.ndarray:
     roll = (low + (high - low) * rng.random()) * rng.choice((-1.0, 1.0))
     tilt = math.radians(ROLL_TILT_DEG) * difficulty * rng.random()
     delta = np.eye(4)
-    delta[:3, :3] = _rotvec_matrix(tilt * _random_axis(rng)) @ _rotvec_matrix(np.array([0.0, 0.0, roll]))
+    delta[:3, :3] = matmul(
+        _rotvec_matrix(tilt * _random_axis(rng)), _rotvec_matrix(np.array([0.0, 0.0, roll]))
+    )
     delta[:3, 3] = _uniform_ball(rng, ROLL_TRANSLATION_M * difficulty)
     return delta
 
@@ -252,8 +255,8 @@ def _free_case(family: str, index: int, rng: np.random.Generator, difficulty: fl
     T_target = np.linalg.inv(cMo_target)
     for draw in range(1, MAX_DRAWS + 1):
         delta = _roll_offset(rng, difficulty) if family == "free-roll" else _free_offset(rng, difficulty)
-        T_start = T_target @ delta
-        P_C = (points - T_start[:3, 3]) @ T_start[:3, :3]
+        T_start = matmul(T_target, delta)
+        P_C = matmul(points - T_start[:3, 3], T_start[:3, :3])
         if P_C[:, 2].min() < 0.1 or np.abs(P_C[:, :2] / P_C[:, 2:]).max() > 1.0:
             continue
         scenario = {

@@ -346,7 +346,13 @@ def test_rotation_of_pi_pinned_outcomes():
 # retreats 24 m about the optical axis, the QP's active set changes with the last bits, and the time
 # and path move by ~2-4 % (27.1 s, 24.25 m on the Haswell kernel; 27.6 s, 25.17 m on SkylakeX), as
 # docs/controllers.md says under the table. Their outcome must match; their numbers within 5 %.
-KERNEL_SENSITIVE_CELLS = {("gans-rz-180", "mpc-ibvs")}
+# The partitioned law's turns from 120 deg on are set off by round-off (its xy partition is unstable
+# about the pure roll, tests/test_partitioned_ibvs.py): 23.0 s, 1.32 m at 150 deg and 24.6 s,
+# 1.72 m at 180 deg on SkylakeX against 23.0 s, 1.34 m and 24.4 s, 1.71 m on Haswell.
+KERNEL_SENSITIVE_CELLS = {
+    ("gans-rz-180", "mpc-ibvs"),
+    *((f"gans-rz-{angle}", "ibvs-partitioned") for angle in (120, 150, 180)),
+}
 
 
 def _cells(table: str) -> tuple[list[str], dict[str, list[str]]]:

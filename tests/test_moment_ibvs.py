@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -219,17 +220,20 @@ def test_the_textbook_cases_with_seven_irregular_points(case):
 
 
 def test_interaction_at_the_current_image_is_an_option_that_acts():
-    """From ViSP's tutorial start, L_s* reaches the target; L_s at each frame ends 169 mm / 12.8 deg off.
+    """From ViSP's tutorial start, L_s* reaches the target; L_s at each frame does not.
 
     With the current rows the law reaches a pose whose moments nearly match the target's (errors
-    ~5e-3) where L_s is near singular, and chatters (twist peaks of 5.6 rad/s) for the rest of the
-    30 s: the invariants do not fix the tilt there. Measured, both.
+    ~5e-3) where L_s is near singular, and chatters for the rest of the 30 s: the invariants do not
+    fix the tilt there. Where it ends depends on the last bits of the arithmetic (measured: 169 mm /
+    12.8 deg on OpenBLAS's Haswell kernel, 1365 mm / 146 deg on SkylakeX), so only that is pinned:
+    more than 100 mm off, twist peaks above 1 rad/s, against L_s*'s 8.8e-5 mm.
     """
     desired = run(MomentIBVS("desired"), TUTORIAL_START, markers_O=IRREGULAR_O)
     assert desired.final_pose_error()[0] < 1e-3
+    assert np.abs(desired.signals["camera_twist"]).max() < 0.5
     current = run(MomentIBVS("current"), TUTORIAL_START, markers_O=IRREGULAR_O)
-    assert current.final_pose_error() == pytest.approx((168.99914, 12.821910), rel=1e-5)
-    assert np.abs(current.signals["camera_twist"]).max() == pytest.approx(5.5788727, rel=1e-5)
+    assert current.final_pose_error()[0] > 100.0
+    assert np.abs(current.signals["camera_twist"]).max() > 1.0
 
 
 @pytest.mark.parametrize("plant", ["kinematic", "dynamic"])
@@ -263,13 +267,18 @@ def _task(markers_O, target=TARGET, camera=None):
 
 
 def test_targets_without_the_features_are_refused_with_the_reason(arm):
-    """The square seen face-on (isotropic: alpha undefined), the tilted square (an image symmetric about
-    an axis: L_s* singular, 1.6e-18), a rectangle (centrally symmetric), markers off one plane, the
-    paper's isosceles marker triangle of physical-2: each an InvalidParameterError at reset."""
+    """Each an InvalidParameterError at reset, with the reason.
+
+    The square seen face-on (isotropic: alpha undefined), the tilted square (an image symmetric
+    about an axis: L_s* singular, sigma ratio 1.6e-18 or 4.2e-18 by the BLAS kernel), a rectangle
+    (centrally symmetric), markers off one plane, the paper's isosceles marker triangle of
+    physical-2.
+    """
     with pytest.raises(InvalidParameterError, match="isotropic"):
         MomentIBVS().reset(_task(SQUARE_O))
-    with pytest.raises(InvalidParameterError, match=r"sigma_min / sigma_max = 1\.5"):
+    with pytest.raises(InvalidParameterError, match="symmetric about an axis") as err:
         MomentIBVS().reset(_task(SQUARE_O, TILT_TARGET))
+    assert float(re.search(r"sigma_max = ([0-9.e+-]+)", str(err.value)).group(1)) < 1e-15
     with pytest.raises(InvalidParameterError, match="sigma_min / sigma_max"):
         MomentIBVS().reset(_task(SQUARE_O * [2.0, 1.0, 1.0]))
     bent = IRREGULAR_O.copy()

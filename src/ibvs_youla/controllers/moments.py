@@ -20,10 +20,10 @@ pseudo-inverse truncated at 1e-6 sigma_max as :class:`~.ibvs.ClassicalIBVS`, wit
 
 The paper's features are for a planar object: markers that are not coplanar, and a target image
 whose orientation has no value (isotropic second-order moments, e.g. a square seen face-on) or
-whose L_s* is singular (e.g. a centrally symmetric set, where P_y's row vanishes), are refused at
-reset with a typed error. The paper's generalization to a target plane not parallel to the image
-(a virtual camera turned parallel to it) is not implemented: at such a target L_s* is full but
-not block-triangular.
+whose L_s* is singular (an image symmetric about an axis or its centre: P_x and P_y, sums of
+squares, lose the motion that breaks the symmetry), are refused at reset with a typed error.
+The paper's generalization to a target plane not parallel to the image (a virtual camera turned
+parallel to it) is not implemented: at such a target L_s* is full but not block-triangular.
 """
 
 from __future__ import annotations
@@ -108,8 +108,9 @@ class MomentIBVS(Controller):
             raise InvalidParameterError(
                 "task.feature_target",
                 f"a target image whose L_s* has sigma_min / sigma_max = {sigma[-1] / sigma[0]:.3g}",
-                f">= {MIN_TARGET_CONDITION:g} (e.g. a centrally symmetric set of points makes the "
-                "row of P_y vanish)",
+                f">= {MIN_TARGET_CONDITION:g} (an image symmetric about an axis or about its centre, "
+                "e.g. a tilted square, an isosceles triangle or a rectangle, leaves P_x and P_y without "
+                "the motion that breaks the symmetry)",
             )
         super().reset(task)
         self.moment_features = features

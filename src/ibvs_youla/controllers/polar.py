@@ -25,7 +25,7 @@ L_y = [0, -1/Z, y/Z, 1 + y^2, -x y, -x]; for a stereo lens, the rows of
 ``camera.interaction_matrix`` over F, whose u rows carry the lens offset, ERRATA 12).
 Substituting x = r c, y = r s in the monocular rows (c x + s y = r, c y - s x = 0,
 c x y + s (1 + y^2) = s (1 + r^2), c (1 + x^2) + s x y = c (1 + r^2), c (1 + y^2) - s x y = c,
-s (1 + x^2) - c x y = s, c x + s y = r) gives
+s (1 + x^2) - c x y = s) gives
 
     L_r   = [ -c/Z,      -s/Z,      r/Z,  (1 + r^2) s,  -(1 + r^2) c,   0 ]
     L_phi = [  s/(r Z),  -c/(r Z),  0,    c/r,           s/r,          -1 ]

@@ -154,22 +154,26 @@ def _split_cells(split: dict[str, Any]) -> str:
 
 
 def controllers(r: Report) -> str:
-    """One control update of every method, on both cases."""
+    """One control update of every method, on both cases (a method that refuses the square: on 7 points)."""
     rows = [
         "| method | mono: median / p95 [us] | floor [us] | ratio | stereo: median / p95 [us] "
         "| floor [us] | ratio |",
         "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
-    mono, stereo = r["cases"]["mono"]["methods"], r["cases"]["stereo"]["methods"]
+    cases = r["cases"]
+    mono, stereo = cases["mono"]["methods"], cases["stereo"]["methods"]
+    irregular = cases.get("irregular", {}).get("methods", {})  # reports before the case have none
     for name in r["controllers"]:
         cells = []
         for case in (mono, stereo):
-            e = case.get(name)
+            e, note = case.get(name), ""
+            if e is None and case is mono and name in irregular:
+                e, note = irregular[name], " (7 points)"
             if e is None:
-                cells.append("stereo and arm only | | ")
+                cells.append("stereo and arm only | | " if name in ("fb", "ff+fb") else "refused | | ")
             else:
                 cells.append(
-                    f"{_num(e['median_us'])} / {_num(e['p95_us'])} | {_num(e['floor_us'])} | "
+                    f"{_num(e['median_us'])} / {_num(e['p95_us'])}{note} | {_num(e['floor_us'])} | "
                     f"{_num(e['ratio_to_floor'])}"
                 )
         rows.append(f"| `{name}` | {' | '.join(cells)} |")

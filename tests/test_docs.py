@@ -98,10 +98,13 @@ def test_docs_page_python_snippets_run(page, tmp_path, monkeypatch):
             "2.5d",
             "hybrid",
             "mpc-ibvs",
+            "ibvs-polar",
+            "ibvs-partitioned",
         ]
         for method, status, errors in baselines:
             mm, deg = (float(v) for v in errors.strip("()").split(","))
-            assert status == "complete" and mm < 3e-3 and deg < 1e-3, method
+            slower = method in ("ibvs-polar", "ibvs-partitioned")  # 6.4e-3 and 5.1e-3 mm measured
+            assert status == "complete" and mm < (1e-2 if slower else 3e-3) and deg < 1e-3, method
     if name == "own-robot.md":
         status = next(line for line in lines if line.startswith("ur5:"))
         assert status.startswith("ur5: complete")

@@ -115,6 +115,22 @@ def test_current_depth_laws_use_measured_depths_not_their_model(name):
     assert np.abs(controller.interaction_matrix(frame.features) - by_depth).max() > 1e-2  # PnP: the belief
 
 
+@pytest.mark.parametrize("name", ["ibvs-polar", "ibvs-partitioned"])
+def test_the_other_point_laws_use_measured_depths_too(name):
+    """Polar and partitioned IBVS take L's depths from the frame when it carries them: depths 5 %
+    long give another twist, and a frame without depths gives the one of the controller's model."""
+    T = T_O_C([0.05, 0.02, 0.9], [5, -8, 30])
+    frame = MarkerSensor(CAMERA, SQUARE_O).with_depth().measure(T, 0.0)
+    controller = make(name)
+    controller.reset(task_with())
+    controller.update(frame, None)
+    by_depth = controller.command(None).copy()
+    controller.update(frame._replace(depth=frame.depth * 1.05), None)
+    assert np.abs(controller.command(None) - by_depth).max() > 1e-4
+    controller.update(frame._replace(depth=None), None)  # PnP on the true markers: the true depths
+    np.testing.assert_allclose(controller.command(None), by_depth, rtol=0, atol=1e-9)
+
+
 def test_ibvs_current_with_measured_depths_is_the_law_at_the_true_depths():
     T = T_O_C([0.05, 0.02, 0.9], [5, -8, 30])
     controller = make("ibvs-current")

@@ -15,6 +15,10 @@ Cases:
   seeded poses on the start -> target path (translation interpolated, rotation by slerp) perturbed
   by 1 cm and 2 deg (standard deviations per axis); a pose is kept when every point lies within the
   MPC's default image box (|x|, |y| <= 0.5), so each MPC update solves one QP (no fallback).
+* ``irregular``: the same poses with seven irregular coplanar points (ViSP's servoMomentPoints set,
+  its repeated point dropped, /20 and centred) in place of the square, every twist method: the
+  moment features refuse the square (isotropic moments), so ``ibvs-moments`` is timed here, next
+  to the other laws on the same frames.
 * ``stereo``: the physical-2 scenario (``StereoCamera.zed2()``, three markers, the IRB 4600 arm)
   on its joint path perturbed by 0.05 rad, as ``bench_outer_loop.py`` does for the paper's
   scenarios; a configuration is kept when every marker is visible. Every twist method and the
@@ -22,19 +26,30 @@ Cases:
   at every frame), fed the encoder reading q_true - d.
 * ``textured``: the textured plane (``scenarios.textured_plane()``: the free camera 1 m before it,
   the 120 x 90 px camera of ``scenarios.textured_camera()``), for the methods that servo on the image
-  (``photometric``). Configurations: seeded poses on the start -> target path perturbed by 1 cm and
-  1 deg; each frame carries the image the scene sensor renders (``SceneImageSensor.measure``), not
-  timed with the update, but timed as a part (``scene_frame``: the image and the markers' features,
-  what the loop's sensor costs per frame for this method; ``render_plane``: the warp alone).
+  (``photometric``), which run on no other case. Configurations: seeded poses on the start ->
+  target path perturbed by 1 cm and 1 deg; each frame carries the image the scene sensor renders
+  (``SceneImageSensor.measure``), not timed with the update, but timed as a part (``scene_frame``:
+  the image and the markers' features, what the loop's sensor costs per frame for this method;
+  ``render_plane``: the warp alone).
+
+A method that refuses a case's task at reset (``InvalidParameterError``: ``ibvs-moments`` on the
+square and on physical-2's isosceles markers) is listed in ``cases[case]["refused"]`` with the
+reason, and not timed there.
 
 Every call is timed alone (``time.perf_counter``, GC off) in passes over all configurations of a
 case: one pass per method, then one per floor call, part and reference law (each pass calls one
 function back to back, as the update passes do), all of them in every round (3 warm-up rounds),
 so that all see the same machine load. JSON: ``controllers`` maps each registered method to
 ``median_us``, ``p95_us``, ``floor_us``, ``ratio_to_floor`` on its case (``case``: ``mono`` for the
-point twist methods, ``stereo`` for the paper's, ``textured`` for photometric servoing);
-``cases[case]["methods"]`` has every method on each case, ``floor_calls_median_us`` and
-``parts_median_us`` the pieces; ``reference`` the reference laws; ``machine`` where and when.
+twist methods, ``irregular`` for those that refuse the square, ``stereo`` for the paper's,
+``textured`` for photometric servoing);
+``cases[case]["methods"]`` has every method that runs on each case, ``cases[case]["refused"]``
+those that refuse it, ``floor_calls_median_us`` and ``parts_median_us`` the pieces;
+``reference`` the reference laws; ``machine`` where and when. ``ibvs-polar`` and
+``ibvs-partitioned`` get ``dgesdd_L`` as their SVD floor (their own L is 8x6 and 8x4 mono, 12x6
+and 9x4 stereo, against the 8x6 and 9x6 timed); ``ibvs-moments`` (L_s* at the target) the
+product ``dot_pinv``; ``photometric`` the product L_I*^T e (``dot_LTe``: numpy, 6 x N by N, N =
+7,000 pixels).
 
 **Floor** of a method: the native calls its update cannot avoid, each timed bare on the same data
 (:data:`FLOORS`); ``floor_us`` is the sum of their medians and ``ratio_to_floor`` = median / floor.
@@ -47,9 +62,8 @@ the 3x3 cross-covariance of stereo P3P (Kabsch); ``daqp``: ``daqp.solve`` alone 
 builds (the arrays packed as qpsolvers packs them); ``fk``, ``frame_placement``,
 ``frame_jacobian``, ``dgesdd_J``: the paper's controller's Pinocchio ``forwardKinematics`` and
 ``updateFramePlacement`` (the IK pose check), ``computeFrameJacobian`` (LOCAL) and the SVD of the
-9x6 image Jacobian (the floor of ``bench_outer_loop.py``); ``dot_LTe``: the product L_I*^T e of the
-photometric law (numpy, 6 x N by N, N = 7,000 pixels). ``solvepnp_ippe`` (IPPE, for planar points)
-is timed for comparison only.
+9x6 image Jacobian (the floor of ``bench_outer_loop.py``). ``solvepnp_ippe`` (IPPE, for planar
+points) is timed for comparison only.
 
 **Parts** (library functions, the same frames): ``pose_estimate`` (``estimate_camera_pose``: the
 validated wrapper around the PnP or stereo P3P that PBVS, 2.5-D and the hybrid law call),
@@ -66,8 +80,9 @@ minimal Python IBVS law (L of the four points built with numpy from features and
 With ``--mvtb-python PATH`` (an interpreter where ``machinevision-toolbox-python`` is installed,
 never a dependency of this project) the Machine Vision Toolbox for Python's ``IBVS.step`` and its
 law alone (``visjac_p`` + ``np.linalg.pinv``) are timed on the same poses, in a worker process
-that runs its pass in turn with the others (GC off there too). ViSP is not installed: its
-``computeControlLaw`` is not timed.
+that runs its pass in turn with the others (GC off there too). These are laws alone beside the
+toolbox's whole step (projection, law and pose update): not the same work, so not a comparison of
+speed; ``bench_peers.py`` times whole steps of ibvs-youla, ViSP 3.5 and the toolbox on the same case.
 
 Run: ``python benchmarks/bench_controllers.py --json controllers.json [--configs N] [--repeats R]``.
 """
@@ -98,6 +113,7 @@ from ibvs_youla import controllers, scenarios
 from ibvs_youla.controllers import JointReading, ServoTask
 from ibvs_youla.controllers.pbvs import theta_u
 from ibvs_youla.estimation.monocular_pose import estimate_camera_pose
+from ibvs_youla.exceptions import InvalidParameterError
 from ibvs_youla.model.camera import points_interaction_matrix, triangulate_points
 from ibvs_youla.model.luminance import BORDER_PX
 from ibvs_youla.model.textured_plane import render_plane
@@ -106,23 +122,29 @@ from ibvs_youla.simulation.sensor import MarkerSensor
 
 CAMERA_RATE_HZ = 25.0  # the acceptance scenario's camera rate
 PAPER = ("fb", "ff+fb")  # the paper's controllers: stereo and an arm only
-CASES = ("mono", "stereo", "textured")
+CASES = ("mono", "irregular", "stereo", "textured")
 CASE_NAMES = {
     "mono": "ViSP tutorial-ibvs-4pts: normalized monocular camera, 4 points, free camera",
+    "irregular": "the tutorial's poses with 7 irregular coplanar points: normalized camera, free camera",
     "stereo": "physical-2: StereoCamera.zed2(), 3 markers, IRB 4600 joint path",
     "textured": "textured plane: 120 x 90 px pinhole camera, free camera, the image of every frame",
 }
 # The native calls each method's update cannot avoid (module docstring), per case.
+_MONO_FLOORS = {
+    "ibvs-current": ("solvepnp", "dgesdd_L"),
+    "ibvs-desired": ("dot_pinv",),
+    "ibvs-mean": ("solvepnp", "dgesdd_L"),
+    "pbvs": ("solvepnp",),
+    "2.5d": ("solvepnp",),
+    "hybrid": ("solvepnp", "dgesdd_L"),
+    "mpc-ibvs": ("solvepnp", "daqp"),
+    "ibvs-polar": ("solvepnp", "dgesdd_L"),
+    "ibvs-partitioned": ("solvepnp", "dgesdd_L"),
+    "ibvs-moments": ("dot_pinv",),
+}
 FLOORS: dict[str, dict[str, tuple[str, ...]]] = {
-    "mono": {
-        "ibvs-current": ("solvepnp", "dgesdd_L"),
-        "ibvs-desired": ("dot_pinv",),
-        "ibvs-mean": ("solvepnp", "dgesdd_L"),
-        "pbvs": ("solvepnp",),
-        "2.5d": ("solvepnp",),
-        "hybrid": ("solvepnp", "dgesdd_L"),
-        "mpc-ibvs": ("solvepnp", "daqp"),
-    },
+    "mono": _MONO_FLOORS,
+    "irregular": _MONO_FLOORS,
     "stereo": {
         "ibvs-current": ("dgesdd_L",),
         "ibvs-desired": ("dot_pinv",),
@@ -131,11 +153,15 @@ FLOORS: dict[str, dict[str, tuple[str, ...]]] = {
         "2.5d": ("dgesdd_3x3",),
         "hybrid": ("dgesdd_3x3", "dgesdd_L"),
         "mpc-ibvs": ("daqp",),
+        "ibvs-polar": ("dgesdd_L",),
+        "ibvs-partitioned": ("dgesdd_L",),
         "fb": ("fk", "frame_placement", "frame_jacobian", "dgesdd_J", "dgesdd_3x3"),
         "ff+fb": ("fk", "frame_placement", "frame_jacobian", "dgesdd_J", "dgesdd_3x3"),
     },
     "textured": {"photometric": ("dot_LTe",)},
 }
+IRREGULAR_O = np.array([[1, 0], [3, 1], [4, 4], [-1, 4], [-3, -2], [-2, -2], [-1, 1]], dtype=float) / 20.0
+IRREGULAR_O = np.column_stack((IRREGULAR_O - IRREGULAR_O.mean(axis=0), np.zeros(len(IRREGULAR_O))))  # [m]
 
 
 # ---------------------------------------------------------------------------------------- cases
@@ -147,9 +173,12 @@ def _T_O_C(t: list[float], theta_u_deg: list[float]) -> np.ndarray:
     return np.linalg.inv(cMo)
 
 
-def _mono_case(n: int, rng: np.random.Generator) -> tuple[ServoTask, list[Any], int]:
+def _mono_case(
+    n: int, rng: np.random.Generator, points_O: np.ndarray | None = None
+) -> tuple[ServoTask, list[Any], int]:
     """Task and n (frame, reading, T_O_C) of the tutorial case; and how many poses were dropped."""
-    points_O = np.array([[-0.1, -0.1, 0], [0.1, -0.1, 0], [0.1, 0.1, 0], [-0.1, 0.1, 0]], dtype=float)
+    if points_O is None:
+        points_O = np.array([[-0.1, -0.1, 0], [0.1, -0.1, 0], [0.1, 0.1, 0], [-0.1, 0.1, 0]], dtype=float)
     T_start, T_target = _T_O_C([0.15, -0.1, 1.0], [10, -10, 50]), _T_O_C([0, 0, 0.75], [0, 0, 0])
     camera = iy.PinholeCamera.normalized()
     sensor = MarkerSensor(camera, points_O)
@@ -236,12 +265,13 @@ def _textured_case(n: int, rng: np.random.Generator) -> tuple[ServoTask, list[An
     return task, out, 0
 
 
-def _controllers_for(case: str, task: ServoTask) -> dict[str, Any]:
+def _controllers_for(case: str, task: ServoTask) -> tuple[dict[str, Any], dict[str, str]]:
     """Every registered method that runs on the case, built by name with its defaults, reset.
 
-    The methods that servo on the image run on the textured case only, the others on the two others.
+    And those that refuse the case's task at reset (name -> the reason). The methods that servo
+    on the image run on the textured case alone, and the others on every other case.
     """
-    out = {}
+    out, refused = {}, {}
     for name in controllers.names():
         if controllers.make(name).needs_image != (case == "textured"):
             continue
@@ -251,9 +281,13 @@ def _controllers_for(case: str, task: ServoTask) -> dict[str, Any]:
             ctrl = controllers.make(name, adaptive=True)  # the paper's gains (YoulaSettings defaults)
         else:
             ctrl = controllers.make(name)
-        ctrl.reset(task)
+        try:
+            ctrl.reset(task)
+        except InvalidParameterError as err:
+            refused[name] = str(err)
+            continue
         out[name] = ctrl
-    return out
+    return out, refused
 
 
 # ---------------------------------------------------------------------------------------- floor data
@@ -316,7 +350,7 @@ def _jobs(case: str, task: ServoTask, ctrls: dict[str, Any], configs: list[Any])
         "part:mpc_qp_build": (mpc.qp, [(s,) for s in features]),
         "part:mpc_qpsolvers": (qpsolvers_solve, qps),
     }
-    if case == "mono":
+    if case != "stereo":
         K = np.eye(3)
         F, P_ref = camera.focal_length, np.ascontiguousarray(markers_O)
         pnp = [(P_ref, np.ascontiguousarray(s.reshape(n, 2) / F)) for s in features]
@@ -503,14 +537,26 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
 
     rng = np.random.default_rng(args.seed)
     setup: dict[str, Any] = {}
-    for case, build in (("mono", _mono_case), ("stereo", _stereo_case), ("textured", _textured_case)):
-        task, configs, dropped = build(args.configs, rng)
-        ctrls = _controllers_for(case, task)
+    builders = {
+        "mono": _mono_case,
+        "irregular": lambda n, rng: _mono_case(n, rng, IRREGULAR_O),
+        "stereo": _stereo_case,
+        "textured": _textured_case,
+    }
+    for case in CASES:
+        task, configs, dropped = builders[case](args.configs, rng)
+        ctrls, refused = _controllers_for(case, task)
         for ctrl in ctrls.values():  # every method runs on every configuration (untimed check)
             for frame, reading, _ in configs:
                 ctrl.update(frame, reading)
         jobs = _jobs(case, task, ctrls, configs)
-        setup[case] = {"configs": configs, "dropped": dropped, "controllers": ctrls, "jobs": jobs}
+        setup[case] = {
+            "configs": configs,
+            "dropped": dropped,
+            "controllers": ctrls,
+            "refused": refused,
+            "jobs": jobs,
+        }
     mono = setup["mono"]
     worker = None
     if args.mvtb_python:
@@ -592,25 +638,26 @@ def _report(
             "methods": {
                 name: _entry(stats, name, FLOORS[case].get(name)) for name in setup[case]["controllers"]
             },
+            "refused": setup[case]["refused"],
             "floor_calls_median_us": medians("floor:"),
             "parts_median_us": medians("part:"),
             "stats": stats,
         }
-    # One entry per method: the tutorial case for the point twist methods, stereo physical-2 for the
-    # paper's, the textured plane for those that servo on the image.
-    primary = {
-        name: {**entry, "case": case}
-        for case in CASES
-        for name, entry in cases[case]["methods"].items()
-        if case == "textured" or (name in PAPER) == (case == "stereo")
-    }
+    # One entry per method: the tutorial case for the twist methods (the irregular points for those
+    # that refuse the square), stereo physical-2 for the paper's, the textured plane for those that
+    # servo on the image.
+    primary: dict[str, Any] = {}
+    for case in ("stereo", "irregular", "mono", "textured"):  # later cases take precedence
+        for name, entry in cases[case]["methods"].items():
+            if case == "textured" or (name in PAPER) == (case == "stereo"):
+                primary[name] = {**entry, "case": case}
     mono_stats = cases["mono"]["stats"]
     reference: dict[str, Any] = {
         key.split(":", 1)[1]: {k: mono_stats[key][k] for k in ("median_us", "p95_us", "n")}
         for key in mono_stats
         if key.startswith("ref:")
     }
-    not_timed = {"visp-computeControlLaw": "ViSP is not installed here: not timed"}
+    not_timed = {"visp-computeControlLaw": "a law alone: ViSP's whole loop iteration is in bench_peers"}
     if worker is None:
         not_timed["mvtb-ibvs-step"] = "no --mvtb-python given: not timed"
     else:
@@ -641,13 +688,13 @@ def _fmt(x: float | None, digits: int = 1) -> str:
 def _print(r: dict[str, Any]) -> None:
     n = f"{r['settings']['configs']} x {r['settings']['repeats']}"
     print(f"one control update, median / p95 / floor [us] (n = {n} per case)")
-    header = f"{'method':<14} {'case':<7} {'median':>8} {'p95':>8} {'floor':>8} {'ratio':>6}  floor calls"
+    header = f"{'method':<16} {'case':<9} {'median':>8} {'p95':>8} {'floor':>8} {'ratio':>6}  floor calls"
     print(header)
     for case in CASES:
         for name, e in r["cases"][case]["methods"].items():
             calls = "+".join(e["floor_calls"]) if e["floor_calls"] else "unknown"
             print(
-                f"{name:<14} {case:<7} {_fmt(e['median_us']):>8} {_fmt(e['p95_us']):>8} "
+                f"{name:<16} {case:<9} {_fmt(e['median_us']):>8} {_fmt(e['p95_us']):>8} "
                 f"{_fmt(e['floor_us']):>8} {_fmt(e['ratio_to_floor']):>6}  {calls}"
             )
     for case in CASES:

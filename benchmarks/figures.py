@@ -124,6 +124,19 @@ def simulation(r: Report) -> str:
             f"{_met(met.get('classical', {}).get(name))} | {_num(split['dynamics_us_per_step'])} | "
             f"{_num(split['outer_us_per_frame'])} | {_num(split['joint_control_us_per_step'])} |"
         )
+    robot_met = met.get("robots", {})
+    for name, row in r.get("robots", {}).items():
+        paper, classical, ok = row["paper"], row["classical"], robot_met.get(name, {})
+        rows.append(
+            f"| {name} ({row['n_joints']} joints, IK {row['ik']}), ff+fb adaptive, dynamic arm, "
+            f"1 kHz / 100 Hz | **{_num(paper['realtime_factor'])}x** | >= 20x {_met(ok.get('paper'))} | "
+            + _split_cells(paper["split"])
+        )
+        rows.append(
+            f"| {name}, ibvs-current, kinematic arm, 25 Hz | **{_num(classical['realtime_factor'], 0)}x** "
+            f"({_num(classical['cost_vs_irb4600'], 2)}x the IRB 4600's wall time) | <= 1.5x the IRB "
+            f"4600's {_met(ok.get('classical'))} | " + _split_cells(classical["split"])
+        )
     settings = r["settings"]
     return (
         "\n".join(rows)
@@ -132,15 +145,26 @@ def simulation(r: Report) -> str:
     )
 
 
+def _split_cells(split: dict[str, Any]) -> str:
+    """The plant, frame and tick-control cells of a run's split."""
+    return (
+        f"{_num(split['dynamics_us_per_step'])} | {_num(split['outer_us_per_frame'])} | "
+        f"{_num(split['joint_control_us_per_step'])} |"
+    )
+
+
 def controllers(r: Report) -> str:
-    """One control update of every method, on both cases (and the textured plane's, for the image methods)."""
+    """One control update of every method, on both cases (a method that refuses the square: on 7 points;
+    one that servoes on the image: on the textured plane)."""
     rows = [
         "| method | mono: median / p95 [us] | floor [us] | ratio | stereo: median / p95 [us] "
         "| floor [us] | ratio |",
         "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
-    mono, stereo = r["cases"]["mono"]["methods"], r["cases"]["stereo"]["methods"]
-    textured = r["cases"].get("textured", {}).get("methods", {})
+    cases = r["cases"]
+    mono, stereo = cases["mono"]["methods"], cases["stereo"]["methods"]
+    irregular = cases.get("irregular", {}).get("methods", {})  # reports before the case have none
+    textured = cases.get("textured", {}).get("methods", {})
     for name in r["controllers"]:
         cells = []
         if name in textured:  # it servoes on the image: the textured plane is its case (mono columns)
@@ -151,17 +175,19 @@ def controllers(r: Report) -> str:
                 "monocular only | | ",
             ]
         for case in (mono, stereo) if not cells else ():
-            e = case.get(name)
+            e, note = case.get(name), ""
+            if e is None and case is mono and name in irregular:
+                e, note = irregular[name], " (7 points)"
             if e is None:
-                cells.append("stereo and arm only | | ")
+                cells.append("stereo and arm only | | " if name in ("fb", "ff+fb") else "refused | | ")
             else:
                 cells.append(
-                    f"{_num(e['median_us'])} / {_num(e['p95_us'])} | {_num(e['floor_us'])} | "
+                    f"{_num(e['median_us'])} / {_num(e['p95_us'])}{note} | {_num(e['floor_us'])} | "
                     f"{_num(e['ratio_to_floor'])}"
                 )
         rows.append(f"| `{name}` | {' | '.join(cells)} |")
     settings = r["settings"]
-    parts = r["cases"].get("textured", {}).get("parts_median_us", {})
+    parts = cases.get("textured", {}).get("parts_median_us", {})
     frame = (
         f" The textured plane's frame (120 x 90 px image and markers) costs {_num(parts['scene_frame'])} us "
         f"of which the warp {_num(parts['render_plane'])} us."
@@ -172,6 +198,45 @@ def controllers(r: Report) -> str:
         "\n".join(rows)
         + f"\n\n{settings['configs']} configurations x {settings['repeats']} rounds per case.{frame} "
         f"Measured {_when(r)}.\n"
+    )
+
+
+def peers(r: Report) -> str:
+    """One step of ViSP's tutorial-ibvs-4pts by ibvs-youla, ViSP 3.5 and MVTB, the same case, one run."""
+    visp, mvtb = r["peers"].get("visp"), r["peers"].get("mvtb")
+    rows = [
+        "| one step of tutorial-ibvs-4pts | median [us] | / ViSP | MVTB / this | features vs ours (max) |",
+        "| --- | ---: | ---: | ---: | ---: |",
+    ]
+    if visp:
+        rows.append(
+            f"| ViSP {visp['version']} C++ (vpServo + vpSimulatorCamera) | {_num(visp['step_us'])} | 1.0 | "
+            f"{_num(mvtb['step_us'] / visp['step_us']) if mvtb else 'n/a'} | "
+            f"{visp['trajectory']['max']:.1e} |"
+        )
+    labels = {
+        "depth": 'ibvs-youla, measured depth (`sensor="depth"`)',
+        "depth, plug-in loop": 'ibvs-youla, measured depth, `loop="plug-in"`',
+        "monocular": "ibvs-youla, monocular (SQPnP depths)",
+        "monocular, plug-in loop": 'ibvs-youla, monocular, `loop="plug-in"`',
+    }
+    for mode, o in r["ours"].items():
+        rows.append(
+            f"| {labels.get(mode, mode)}: the {o['loop']} loop | **{_num(o['step_us'])}** | "
+            f"{_num(o['step_us'] / visp['step_us']) if visp else 'n/a'} | "
+            f"{_num(mvtb['step_us'] / o['step_us']) if mvtb else 'n/a'} | |"
+        )
+    if mvtb:
+        rows.append(
+            f"| MVTB-python {mvtb['version']} `IBVS.step` | {_num(mvtb['step_us'])} | "
+            f"{_num(mvtb['step_us'] / visp['step_us']) if visp else 'n/a'} | 1.0 | "
+            f"{mvtb['trajectory']['max']:.1e} |"
+        )
+    s = r["settings"]
+    skipped = "".join(f" {k} skipped: {v}." for k, v in r.get("skipped", {}).items())
+    return (
+        "\n".join(rows)
+        + f"\n\n{s['steps']} steps per run, {s['rounds']} alternating rounds.{skipped} Measured {_when(r)}.\n"
     )
 
 
@@ -314,6 +379,35 @@ def targets(reports: dict[str, Report | None]) -> str:
                 f"| classical IBVS, {name}, 25 Hz: >= 1,000x | {_num(c['realtime_factor'], 0)}x | "
                 f"{_met(c['realtime_factor'] >= 1000)} | {load(sim)} |"
             )
+        robots = {n: r for n, r in sim.get("robots", {}).items() if n != "irb4600"}
+        if robots:
+            factors = {n: r["paper"]["realtime_factor"] for n, r in robots.items()}
+            costs = {n: r["classical"]["cost_vs_irb4600"] for n, r in robots.items()}
+            rows.append(
+                "| the paper's controller on other arms, dynamic, 1 kHz / 100 Hz: >= 20x real time | "
+                + ", ".join(f"{n} {_num(v)}x" for n, v in factors.items())
+                + f" | {_met(min(factors.values()) >= 20)} | {load(sim)} |"
+            )
+            rows.append(
+                "| classical IBVS on other arms, kinematic, 25 Hz: <= 1.5x the IRB 4600's cost | "
+                + ", ".join(f"{n} {_num(v, 2)}x" for n, v in costs.items())
+                + f" | {_met(max(costs.values()) <= 1.5)} | {load(sim)} |"
+            )
+    peer = reports.get("peers")
+    if peer is not None and peer.get("ratios"):
+        ratios, ours = peer["ratios"], peer["ours"]
+        checks = (  # (ratio, the target, what it says)
+            ("depth / visp", lambda x: x <= 3.0, "measured depth: a step <= 3x ViSP's C++ iteration"),
+            ("mvtb / depth", lambda x: x >= 20.0, "measured depth: >= 20x faster than MVTB's IBVS.step"),
+            ("monocular / visp", lambda x: x <= 6.0, "monocular (PnP depths): a step <= 6x ViSP's"),
+        )
+        for key, ok, what in checks:
+            if key in ratios:
+                mode = "depth" if "depth" in key else "monocular"
+                rows.append(
+                    f"| {what} | {_num(ratios[key], 2)}x ({_num(ours[mode]['step_us'])} us) | "
+                    f"{_met(ok(ratios[key]))} | {load(peer)} |"
+                )
     if camp is not None:
         p = camp["projection"]
         rows.append(
@@ -334,6 +428,7 @@ TABLES: dict[str, tuple[str, Callable[[Report], str]]] = {
     "outer_loop": ("outer_loop", outer_loop),
     "simulation": ("simulation", simulation),
     "controllers": ("controllers", controllers),
+    "peers": ("peers", peers),
     "campaign": ("campaign", campaign),
 }
 

@@ -6,7 +6,8 @@ One command, from the repository's root with an editable install:
     .venv/bin/python benchmarks/run_all.py --quick    # small sizes: checks the pipeline (~2 min)
 
 Steps: (1) warm Numba's cache (compile or load every kernel once, so that no timing includes
-it); (2) run ``bench_outer_loop``, ``bench_simulation``, ``bench_controllers`` and
+it); (2) run ``bench_outer_loop``, ``bench_simulation``, ``bench_controllers``, ``bench_peers``
+(ViSP 3.5 and MVTB-python on the same work: it builds its C++ harness and makes MVTB's venv) and
 ``bench_campaign`` one after the other, each writing ``reports/<name>.json`` (latest report at
 the top level, every run's headline appended to its ``history``); (3) rewrite the generated
 blocks of ``README.md`` from the reports (:mod:`figures`). A benchmark that fails is reported
@@ -27,11 +28,23 @@ from pathlib import Path
 from typing import Any
 
 HERE = Path(__file__).resolve().parent
-ORDER = ("outer_loop", "simulation", "controllers", "campaign")
+ORDER = ("outer_loop", "simulation", "controllers", "peers", "campaign")
 QUICK = {
     "outer_loop": ["--configs", "20", "--repeats", "2", "--rebuilds", "2"],
     "simulation": ["--duration", "0.5", "--classical-duration", "4", "--repeats", "1"],
     "controllers": ["--configs", "10", "--repeats", "2"],
+    "peers": [
+        "--steps",
+        "30",
+        "--rounds",
+        "1",
+        "--ours-repeats",
+        "2",
+        "--visp-repeats",
+        "3",
+        "--mvtb-repeats",
+        "1",
+    ],
     "campaign": ["--cases", "2", "--arm-cases", "1", "--duration", "4", "--arm-duration", "1"],
 }
 
@@ -57,17 +70,24 @@ def warm_up() -> float:
         for name in ("ff+fb", "ibvs-current"):
             sc = scenarios.paper(2) if name == "ff+fb" else scenarios.physical(2)
             iy.simulate(sc, name, duration=0.02, settings=settings, arm=arm)
+    for method in ("ibvs-current", "ibvs-desired", "ibvs-mean"):  # the compiled frame path
+        iy.simulate(
+            scenarios.physical(2), method, duration=0.2, plant="kinematic", arm=arm,
+            settings=iy.SimulationSettings(joint_rate_hz=25.0, camera_rate_hz=25.0),
+        )  # fmt: skip
     quick = iy.SimulationSettings(joint_rate_hz=25.0, camera_rate_hz=25.0)
     for plant in ("kinematic", "free-camera"):
         iy.simulate(scenarios.physical(2), "ibvs-current", duration=0.2, plant=plant, settings=quick, arm=arm)
-    iy.simulate(
-        suites.task("gans-general").scenario(),
-        "ibvs-current",
-        duration=0.2,
-        plant="free-camera",
-        camera=iy.PinholeCamera.normalized(25.0),
-        settings=quick,
-    )
+    for sensor in (None, "depth"):
+        iy.simulate(
+            suites.task("gans-general").scenario(),
+            "ibvs-current",
+            duration=0.2,
+            plant="free-camera",
+            camera=iy.PinholeCamera.normalized(25.0),
+            settings=quick,
+            sensor=sensor,
+        )
     return time.perf_counter() - t0
 
 

@@ -346,7 +346,13 @@ def test_rotation_of_pi_pinned_outcomes():
 # retreats 24 m about the optical axis, the QP's active set changes with the last bits, and the time
 # and path move by ~2-4 % (27.1 s, 24.25 m on the Haswell kernel; 27.6 s, 25.17 m on SkylakeX), as
 # docs/controllers.md says under the table. Their outcome must match; their numbers within 5 %.
-KERNEL_SENSITIVE_CELLS = {("gans-rz-180", "mpc-ibvs")}
+# The partitioned law's turns from 120 deg on are set off by round-off (its xy partition is unstable
+# about the pure roll, tests/test_partitioned_ibvs.py): 23.0 s, 1.32 m at 150 deg and 24.6 s,
+# 1.72 m at 180 deg on SkylakeX against 23.0 s, 1.34 m and 24.4 s, 1.71 m on Haswell.
+KERNEL_SENSITIVE_CELLS = {
+    ("gans-rz-180", "mpc-ibvs"),
+    *((f"gans-rz-{angle}", "ibvs-partitioned") for angle in (120, 150, 180)),
+}
 
 
 def _cells(table: str) -> tuple[list[str], dict[str, list[str]]]:
@@ -392,6 +398,10 @@ def test_the_whole_suite_outcomes(capsys, tmp_path):
     assert f"n/a: photometric does not apply ({suites.NOT_APPLICABLE})." in text
     outcome = {key: r for key, r in outcome.items() if key not in not_run}
     failed = {key: r["outcome"] for key, r in outcome.items() if r["outcome"] != "converged"}
+    # the moment features refuse the face-on square (isotropic moments) on every task
+    assert {key: failed.pop(key) for key in list(failed) if key[1] == "ibvs-moments"} == {
+        (t.name, "ibvs-moments"): "rejected" for t in suites.GANS_2003
+    }
     assert failed == {
         ("gans-rz-150", "ibvs-desired"): "markers_lost",
         ("gans-rz-180", "ibvs-current"): "estimate_failed",
@@ -407,7 +417,9 @@ def test_the_whole_suite_outcomes(capsys, tmp_path):
     assert general["pbvs"]["path_ratio"] == pytest.approx(1.0, abs=1e-3)
     assert general["ibvs-desired"]["feature_excursion"] == pytest.approx(13.777953, rel=1e-6)
     assert all(
-        r["feature_excursion"] < suites.NOMINAL_HALF_VIEW for n, r in general.items() if n != "ibvs-desired"
+        r["feature_excursion"] < suites.NOMINAL_HALF_VIEW
+        for n, r in general.items()
+        if n not in ("ibvs-desired", "ibvs-moments")  # the moments did not run
     )
     assert (tmp_path / "gans-general" / "table.md").is_file()
 

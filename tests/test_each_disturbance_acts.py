@@ -44,12 +44,14 @@ CASES = {
     "latency_frames": (2, {}, "dynamic"),
     "limit_scale": (0.05, {}, "dynamic"),
     "seed": (1, {"pixel_noise_px": 0.05}, "dynamic"),
+    "depth_noise_m": (0.01, {}, "free-camera"),
 }
+SENSOR = {"depth_noise_m": "depth"}  # a field that needs a sensor other than the ideal one
 
 SQUARE = np.array([[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]])  # [m]
 
 
-def _free_camera_run(disturbances):
+def _free_camera_run(disturbances, sensor=None):
     start, target = np.eye(4), np.eye(4)
     start[:3, 3], target[:3, 3] = [0.05, -0.03, -0.9], [0.0, 0.0, -0.75]
     scenario = iy.Scenario.free_camera(T_O_C_start=start, T_O_C_target=target, markers_O=SQUARE)
@@ -61,13 +63,14 @@ def _free_camera_run(disturbances):
         duration=0.4,
         settings=iy.SimulationSettings(joint_rate_hz=25.0, camera_rate_hz=25.0),
         disturbances=disturbances,
+        sensor=sensor,
     )
 
 
-def _run(plant, **values):
+def _run(plant, sensor=None, **values):
     disturbances = Disturbances(**values)
     if plant == "free-camera":
-        return _free_camera_run(disturbances)
+        return _free_camera_run(disturbances, sensor)
     return iy.simulate(
         iy.scenarios.physical(1), "fb", duration=DURATION, plant=plant, disturbances=disturbances
     )
@@ -91,8 +94,8 @@ def _difference(a, b):
 @pytest.mark.parametrize("field", sorted(CASES))
 def test_each_disturbance_alone_changes_the_run(field):
     value, others, plant = CASES[field]
-    without = _run(plant, **others)
-    with_it = _run(plant, **others, **{field: value})
+    without = _run(plant, SENSOR.get(field), **others)
+    with_it = _run(plant, SENSOR.get(field), **others, **{field: value})
     assert with_it.metadata["spec"]["disturbances"][field] == (
         list(value) if isinstance(value, tuple) else value
     )

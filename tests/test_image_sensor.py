@@ -188,7 +188,7 @@ def test_a_sensor_function_builds_the_sensor_from_the_truth_and_ideal_changes_no
 
 @pytest.mark.parametrize(
     ("sensor", "match"),
-    [("camera", "'ideal' or 'images'"), (42, "int"), (lambda truth: None, "returning NoneType")],
+    [("camera", "'ideal', 'depth' or 'images'"), (42, "int"), (lambda truth: None, "returning NoneType")],
 )
 def test_simulate_rejects_an_unknown_sensor(sensor, match):
     with pytest.raises(InvalidParameterError, match=match):

@@ -104,6 +104,11 @@ def test_an_image_based_controller_written_by_a_user_converges_on_the_free_camer
 
 
 # --------------------------------------------------------------------------- every controller on every plant
+# The controllers that refuse physical-2's task at reset, and why: the moment features need an image
+# without symmetry, and its three markers form an isosceles triangle at the target (L_s* singular).
+REFUSES_PHYSICAL_2 = {"ibvs-moments": "sigma_min / sigma_max"}
+
+
 @pytest.mark.parametrize("plant", PLANTS)
 @pytest.mark.parametrize("name", controllers.names())
 def test_every_registered_controller_runs_on_every_plant_or_says_why_not(name, plant, arm):
@@ -121,6 +126,10 @@ def test_every_registered_controller_runs_on_every_plant_or_says_why_not(name, p
         "kinematic": order.index(ctrl.command_type) <= order.index(CommandType.JOINT_POSITION),
         "dynamic": True,
     }[plant]
+    if name in REFUSES_PHYSICAL_2 and runs:
+        with pytest.raises(InvalidParameterError, match=REFUSES_PHYSICAL_2[name]):
+            iy.simulate(scenarios.physical(2), ctrl, duration=0.05, plant=plant, arm=arm)
+        return
     scenario, camera = scenarios.physical(2), None
     if ctrl.needs_image:  # it servoes on the image of a scene: refused on markers alone, typed
         with pytest.raises(InvalidParameterError, match="a scenario with a scene"):

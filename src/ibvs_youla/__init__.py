@@ -51,6 +51,7 @@ _LAZY: dict[str, str] = {
     "ImagingSettings": ".simulation.rendering",
 }
 _SUBMODULES = {"scenarios", "model", "estimation", "control", "controllers", "simulation", "analysis"}
+_ALIASES = {"robots": ".model.robots"}  # iy.robots: robots by name
 
 __all__ = [
     "Arm",
@@ -82,6 +83,7 @@ __all__ = [
     "exceptions",
     "model",
     "rigid_transform_from_points",
+    "robots",
     "scenarios",
     "simulate",
     "simulation",
@@ -93,8 +95,8 @@ def __getattr__(name: str) -> Any:
         value = getattr(importlib.import_module(_LAZY[name], __name__), name)
         globals()[name] = value
         return value
-    if name in _SUBMODULES:
-        module = importlib.import_module(f".{name}", __name__)
+    if name in _SUBMODULES or name in _ALIASES:
+        module = importlib.import_module(_ALIASES.get(name, f".{name}"), __name__)
         globals()[name] = module
         return module
     raise AttributeError(f"module 'ibvs_youla' has no attribute {name!r}")
@@ -114,6 +116,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .estimation.hand_eye import calibrate_hand_eye
     from .estimation.marker_detection import DetectorSettings
     from .estimation.stereo_pose import rigid_transform_from_points
+    from .model import robots
     from .model.arm import Arm
     from .model.camera import PinholeCamera, StereoCamera, Visibility
     from .model.textured_plane import TexturedPlane

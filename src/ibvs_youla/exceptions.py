@@ -19,6 +19,7 @@ __all__ = [
     "ControllerError",
     "DamagedFileError",
     "DegenerateMarkersError",
+    "FeatureSingularityError",
     "FolderLockedError",
     "IbvsYoulaError",
     "IncompatibleCommandError",
@@ -216,6 +217,24 @@ class DegenerateMarkersError(IbvsYoulaError, ValueError):
 
     def __init__(self, points: Any, message: str) -> None:
         self.points = points
+        super().__init__(message)
+
+
+class FeatureSingularityError(IbvsYoulaError):
+    """An image feature has no value, or no derivative, at the image at hand.
+
+    E.g. the polar angle of a point at the principal point, or the orientation of a point set
+    whose second-order moments are isotropic. The servo loop ends such a run with the status
+    ``"estimate_failed"`` (the controller's model failed on a valid image).
+
+    Attributes:
+        feature: The feature's name, e.g. ``"phi"``.
+        value: What made it singular (e.g. the radius, a moment ratio).
+    """
+
+    def __init__(self, feature: str, value: Any, message: str) -> None:
+        self.feature = feature
+        self.value = value
         super().__init__(message)
 
 

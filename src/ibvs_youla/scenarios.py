@@ -46,14 +46,17 @@ import numpy as np
 from ._reproducible import matmul
 from ._validation import as_array, as_pose, one_of
 from .estimation.stereo_pose import check_marker_geometry
-from .exceptions import InvalidParameterError, JointLimitError
+from .exceptions import InvalidArrayError, InvalidParameterError, JointLimitError
 
 __all__ = [
+    "FOR_ARM_DEPTHS",
+    "FOR_ARM_MIN_SIGMA",
     "NAMES",
     "PAPER_MARKERS_O",
     "TEXTURED_DEPTH_M",
     "TEXTURED_START",
     "Scenario",
+    "for_arm",
     "get",
     "paper",
     "paper_scenarios",
@@ -97,11 +100,12 @@ class Scenario:
     also run on the free-flying camera: its poses are then the arm's forward kinematics.
 
     Attributes:
-        q_start: Initial encoder joint angles (6,) [rad], or ``None`` without an arm.
-        q_target: True joint angles of the target camera pose (6,) [rad], or ``None``.
+        q_start: Initial encoder joint angles (n,) [rad] (prismatic joints [m]), n >= 6 the
+            arm's joints, or ``None`` without an arm.
+        q_target: True joint angles of the target camera pose (n,) [rad], or ``None``.
         markers_O: Marker positions in the base frame, one per row (n, 3), n >= 3 [m]
             (the paper uses three; a monocular camera needs four or more).
-        joint_offset: Disturbance ``d`` (6,) [rad]: true angles = encoder + d (ERRATA 14);
+        joint_offset: Disturbance ``d`` (n,) [rad]: true angles = encoder + d (ERRATA 14);
             ``None`` is stored as zeros.
         name: Short identifier, e.g. ``"paper-1"``.
         virtual_points: Project markers even when behind the camera or out of view (ERRATA 13).
@@ -137,8 +141,13 @@ class Scenario:
         joints = (self.q_start is not None, self.q_target is not None)
         poses = (self.T_O_C_start is not None, self.T_O_C_target is not None)
         if joints == (True, True) and poses == (False, False):
-            set_(self, "q_start", _frozen(as_array(self.q_start, "q_start", (6,))))
-            set_(self, "q_target", _frozen(as_array(self.q_target, "q_target", (6,))))
+            set_(self, "q_start", _frozen(as_array(self.q_start, "q_start", (None,))))
+            n = self.q_start.shape[0]  # type: ignore[union-attr]
+            if n < 6:
+                raise InvalidArrayError(
+                    "q_start", f"{n} joint(s)", "n >= 6 joints (a camera pose has six degrees of freedom)"
+                )
+            set_(self, "q_target", _frozen(as_array(self.q_target, "q_target", (n,))))
         elif joints == (False, False) and poses == (True, True):
             set_(self, "T_O_C_start", _frozen(as_pose(self.T_O_C_start, "T_O_C_start")))
             set_(self, "T_O_C_target", _frozen(as_pose(self.T_O_C_target, "T_O_C_target")))
@@ -148,8 +157,9 @@ class Scenario:
                 f"q_start/q_target given: {joints}, T_O_C_start/T_O_C_target given: {poses}",
                 "both joint configurations (an arm scenario) or both camera poses (a free-camera scenario)",
             )
-        offset = np.zeros(6) if self.joint_offset is None else self.joint_offset
-        set_(self, "joint_offset", _frozen(as_array(offset, "joint_offset", (6,))))
+        n = 6 if self.q_start is None else self.q_start.shape[0]
+        offset = np.zeros(n) if self.joint_offset is None else self.joint_offset
+        set_(self, "joint_offset", _frozen(as_array(offset, "joint_offset", (n,))))
         if self.markers_O is None:
             raise InvalidParameterError("markers_O", None, "marker positions (n, 3), n >= 3 [m]")
         set_(self, "markers_O", _frozen(check_marker_geometry(self.markers_O, "markers_O")))
@@ -233,12 +243,12 @@ class Scenario:
 
     @property
     def q_true_start(self) -> np.ndarray:
-        """True joint angles at the start, ``q_start + d`` (6,) [rad]."""
+        """True joint angles at the start, ``q_start + d`` (n,) [rad]."""
         return self._joints("q_true_start")[0] + self.joint_offset
 
     @property
     def q_encoder_goal(self) -> np.ndarray:
-        """Encoder reading when the camera is at its target pose, ``q_target - d`` (6,) [rad]."""
+        """Encoder reading when the camera is at its target pose, ``q_target - d`` (n,) [rad]."""
         return self._joints("q_encoder_goal")[1] - self.joint_offset
 
     def _joints(self, what: str) -> tuple[np.ndarray, np.ndarray]:
@@ -260,10 +270,17 @@ class Scenario:
             ``self``, to chain.
 
         Raises:
+            InvalidArrayError: the scenario's joint vectors are not of the arm's size.
             JointLimitError: naming the configuration, the joints and their limits [deg].
         """
         self._joints("a check against joint limits")
         q_min, q_max = np.asarray(arm.q_min, dtype=float), np.asarray(arm.q_max, dtype=float)
+        if self.q_start.shape != q_min.shape:  # type: ignore[union-attr]
+            raise InvalidArrayError(
+                "scenario.q_start",
+                f"{self.q_start.shape[0]} joints (scenario {self.name!r})",  # type: ignore[union-attr]
+                f"{q_min.shape[0]}, the joints of the arm {getattr(arm, 'name', '')!r}",
+            )
         for label, q in (
             ("q_start", self.q_start),
             ("q_start + joint_offset", self.q_true_start),
@@ -305,6 +322,103 @@ def place_markers(T_O_C: Any, rays_xy: Any = MARKER_RAYS_XY, depths: Any = (2.0,
     P_C = depths[:, None] * np.column_stack([rays_xy, np.ones(len(depths))])
     # in a fixed order of operations (not the BLAS's): campaign cases store these numbers
     return matmul(P_C, T_O_C[:3, :3].T) + T_O_C[:3, 3]
+
+
+FOR_ARM_DEPTHS = (0.5, 0.6, 0.7)  # [m] markers of `for_arm` along MARKER_RAYS_XY of the target camera
+FOR_ARM_MIN_SIGMA = 0.05  # smallest singular value of J_C (6, n) accepted at the start and target
+
+
+def for_arm(
+    arm: Any,
+    seed: int = 0,
+    *,
+    q_center: Any = None,
+    spread_deg: float = 10.0,
+    step_deg: float = 5.0,
+    depths: Any = FOR_ARM_DEPTHS,
+    joint_offset_deg: float = 0.0,
+    camera: Any = None,
+    name: str | None = None,
+) -> Scenario:
+    """A seeded servoing scenario for any arm: markers in front of the camera near its home configuration.
+
+    The target configuration is ``q_center`` (default: the robot's home configuration,
+    :mod:`ibvs_youla.model.robots`) with every joint moved by a uniform draw in
+    +-``spread_deg`` (prismatic joints +-1 cm), the start the target moved by +-``step_deg`` per
+    joint (prismatic +-5 mm), both clipped 1 deg (1 mm) inside the joint limits. The markers lie
+    at ``depths`` along the rays :data:`MARKER_RAYS_XY` of the target camera
+    (:func:`place_markers`). A draw is kept when J_C has a smallest singular value >=
+    :data:`FOR_ARM_MIN_SIGMA` at both configurations and every marker is visible to ``camera``
+    (default: the simulator's) at the start, the target and the straight joint-space path
+    between them; else it is drawn again (at most 200 times).
+
+    Args:
+        arm: The arm (``camera_pose``, ``camera_jacobian``, limits, ``robot``).
+        seed: Seed of ``numpy.random.default_rng``.
+        q_center: Configuration (n,) the target is drawn around; needed for an arm that is not
+            a named robot.
+        spread_deg: Half-width of the target draw per joint [deg].
+        step_deg: Half-width of the start's offset from the target per joint [deg].
+        depths: Marker depths in the target camera (3,) [m].
+        joint_offset_deg: The unseen encoder offset d on every revolute joint [deg] (ERRATA 14).
+        camera: The camera the markers must be visible to; default ``default_camera()``.
+        name: The scenario's name; default ``"<robot>-<seed>"``.
+
+    Raises:
+        InvalidParameterError: no ``q_center`` for an arm without a home configuration, or no
+            draw meets the conditions in 200 attempts.
+    """
+    from .model.camera import default_camera
+    from .model.robots import get
+
+    n = int(arm.nq)
+    if q_center is None:
+        if getattr(arm, "robot", None) is None:
+            raise InvalidParameterError(
+                "q_center", None, f"a configuration ({n},): the arm has no home configuration"
+            )
+        q_center = get(arm.robot).q_home
+    q_center = as_array(q_center, "q_center", (n,))
+    camera = default_camera() if camera is None else camera
+    periodic = np.asarray(getattr(arm, "periodic", np.ones(n)), dtype=bool)
+    margin = np.where(periodic, np.radians(1.0), 1e-3)
+    lo, hi = np.asarray(arm.q_min) + margin, np.asarray(arm.q_max) - margin
+    spread = np.where(periodic, np.radians(spread_deg), 0.01)
+    step = np.where(periodic, np.radians(step_deg), 0.005)
+    offset = np.where(periodic, np.radians(joint_offset_deg), 0.0)
+    rng = np.random.default_rng(seed)
+    label = name if name is not None else f"{getattr(arm, 'robot', None) or arm.name}-{seed}"
+    for _ in range(200):
+        q_target = np.clip(q_center + spread * rng.uniform(-1.0, 1.0, n), lo, hi)
+        q_start = np.clip(q_target + step * rng.uniform(-1.0, 1.0, n), lo, hi)
+        sigmas = [np.linalg.svd(arm.camera_jacobian(q), compute_uv=False).min() for q in (q_start, q_target)]
+        if min(sigmas) < FOR_ARM_MIN_SIGMA:
+            continue
+        markers = place_markers(arm.camera_pose(q_target), MARKER_RAYS_XY, depths)
+        path = [q_start + offset + f * (q_target - q_start - offset) for f in np.linspace(0.0, 1.0, 11)]
+        if all(_visible(camera, arm.camera_pose(q), markers) for q in path):
+            return Scenario(
+                q_start=q_start,
+                q_target=q_target,
+                markers_O=np.round(markers, 6),
+                joint_offset=offset,
+                name=label,
+                description=(
+                    f"{arm.name}: target within +-{spread_deg:g} deg of {'q_center' if name else 'home'}, "
+                    f"start +-{step_deg:g} deg from it, markers at depths {tuple(depths)} m (seed {seed})"
+                ),
+            )
+    raise InvalidParameterError(
+        "for_arm",
+        f"arm {arm.name!r}, seed {seed}",
+        f"a draw with J_C's smallest singular value >= {FOR_ARM_MIN_SIGMA} and every marker visible "
+        "(none in 200 attempts: another q_center, smaller spread_deg/step_deg or other depths)",
+    )
+
+
+def _visible(camera: Any, T_O_C: np.ndarray, markers_O: np.ndarray) -> bool:
+    P_C = (markers_O - T_O_C[:3, 3]) @ T_O_C[:3, :3]
+    return bool(camera.visibility(P_C).all_visible)
 
 
 def _check_index(index: Any) -> int:

@@ -10,8 +10,9 @@ that contract, so a controller depends on nothing in the simulation:
   features as measured at the target, target camera pose, start and target joints) and
   the loop's periods. By default they equal the truth; perturbing them studies
   calibration error and model mismatch without touching the loop.
-* :class:`CameraFrame` — each camera frame: features and per-point visibility, and the image
-  itself for a controller that servoes on the image (:attr:`Controller.needs_image`).
+* :class:`CameraFrame` — each camera frame: features and per-point visibility, each point's
+  measured depth when the sensor measures depth (an RGB-D camera), and the image itself for a
+  controller that servoes on the image (:attr:`Controller.needs_image`).
 * :class:`JointReading` — each joint tick: encoder angles and joint speeds (``None`` on a
   plant without joints, the free-flying camera).
 * :class:`CommandType` — what the controller returns each tick: joint torque [N m],
@@ -89,6 +90,9 @@ class CameraFrame(NamedTuple):
             camera (Eq. (24)), [u, v] for a monocular one [m on the sensor; normalized
             coordinates x = X/Z, y = Y/Z for ``PinholeCamera.normalized()``].
         visible: Per-point physical visibility (n,) (in front, in view, in depth range).
+        depth: Measured depth Z_C of each point (n,) [m], from a sensor that measures depth
+            (``simulate(..., sensor="depth")``, an RGB-D camera); ``None`` when the sensor
+            measures none, and a law that needs depths estimates them from its own models.
         image: The grey-level image (height, width) the frame was taken from, float32, for a
             controller that servoes on the image (:attr:`Controller.needs_image`); ``None``
             otherwise (the point sensors measure no image for the controller).
@@ -97,6 +101,7 @@ class CameraFrame(NamedTuple):
     t: float
     features: np.ndarray
     visible: np.ndarray
+    depth: np.ndarray | None = None
     image: np.ndarray | None = None
 
 

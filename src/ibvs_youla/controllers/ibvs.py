@@ -114,7 +114,10 @@ class ClassicalIBVS(Controller):
     * current, stereo (>= 3 points): the points triangulated from the features (Eq. (C6)-(C8)
       of the paper, :func:`~ibvs_youla.model.camera.triangulate_points`), 3 rows per point;
     * desired: the believed markers in the believed target pose ``task.T_O_C_target``,
-      evaluated once at :meth:`reset`.
+      evaluated once at :meth:`reset`;
+    * current, a frame with measured depths (``sensor="depth"``, an RGB-D camera): those
+      depths, no estimate (the points back-projected at them), as ViSP's ``tutorial-ibvs-4pts``
+      gives each ``vpFeaturePoint`` the simulator's depth.
 
     Pseudo-inverse: through the SVD L = U S V^T, L^+ = V S^+ U^T where singular values
     sigma_i <= ``PINV_THRESHOLD`` (1e-6) sigma_max are dropped (1/sigma_i replaced by 0), as
@@ -141,6 +144,8 @@ class ClassicalIBVS(Controller):
         self._policy = SingularValuePolicy("truncate", PINV_THRESHOLD)
         self._twist = np.zeros(6)
         self._lambda = np.zeros(1)
+        self._L_desired: np.ndarray | None = None
+        self._L_desired_pinv: np.ndarray | None = None
 
     @property
     def name(self) -> str:  # type: ignore[override]
@@ -182,7 +187,7 @@ class ClassicalIBVS(Controller):
         if self.interaction == "desired":
             L_pinv_e = self._L_desired_pinv.dot(e)
         else:
-            L = self.interaction_matrix(frame.features)
+            L = self.interaction_matrix(frame.features, frame.depth)
             if self.interaction == "mean":
                 L = 0.5 * (L + self._L_desired)
             U, _, g, Vt = self._policy.svd_gains(L)  # self.pinv(L) without the argument check
@@ -192,9 +197,19 @@ class ClassicalIBVS(Controller):
         self._lambda = np.array([lam])
         self._twist = -lam * L_pinv_e
 
-    def interaction_matrix(self, features: np.ndarray) -> np.ndarray:
-        """L(s, Z) (m, 6) at the given features, depths from the controller's model (class docstring)."""
-        return self._interaction(features)
+    def interaction_matrix(self, features: np.ndarray, depth: np.ndarray | None = None) -> np.ndarray:
+        """L(s, Z) (m, 6) at the features, at measured depths (n,) [m] or the model's (class docstring)."""
+        return self._interaction(features, depth)
+
+    @property
+    def desired_interaction_matrix(self) -> np.ndarray | None:
+        """L* = L(s*, Z*) (m, 6) of the last reset (``"desired"`` and ``"mean"``; None for ``"current"``)."""
+        return self._L_desired
+
+    @property
+    def desired_pseudo_inverse(self) -> np.ndarray | None:
+        """L*^+ (6, m) of the last reset, as :meth:`pinv` (None for ``"current"``)."""
+        return self._L_desired_pinv
 
     def pinv(self, L: np.ndarray) -> np.ndarray:
         """L^+ (6, m) through the SVD, singular values <= 1e-6 sigma_max dropped (class docstring)."""

@@ -19,7 +19,8 @@ the horizon (no re-linearization along the prediction; a later option may re-lin
 come from the controller's own model, as in classical IBVS: a monocular camera's pose estimated
 from the image, ``estimate_camera_pose(task.camera, features, task.markers_O)`` (SQPnP), gives
 Z_i and L is evaluated at the measured features (points back-projected, X = u Z / F); a stereo
-camera triangulates its points (``triangulate_points``, Eq. (C6)-(C8) of the project's paper).
+camera triangulates its points (``triangulate_points``, Eq. (C6)-(C8) of the project's paper);
+a frame with measured depths (``sensor="depth"``) gives them instead (:mod:`.image_points`).
 Features enter the QP divided by the focal length F (normalized coordinates), so the weights mean
 the same for every camera.
 
@@ -253,17 +254,20 @@ class MpcIBVS(Controller):
         self._lb, self._ub = -bound, bound
         self._init_signals()
 
-    def interaction_matrix(self, features: np.ndarray) -> np.ndarray:
-        """L(s, Z) (m, 6) at the measured features, depths from the controller's model (module docstring)."""
-        return self._interaction(features)
+    def interaction_matrix(self, features: np.ndarray, depth: np.ndarray | None = None) -> np.ndarray:
+        """L(s, Z) (m, 6) at the features, at measured depths (n,) [m] or the model's (module docstring)."""
+        return self._interaction(features, depth)
 
-    def qp(self, features: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def qp(
+        self, features: np.ndarray, depth: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(P, q, G, h) of min 1/2 x^T P x + q^T x s.t. G x <= h over x = [v_0; ..; v_{N-1}] (6N,).
 
         The cost is J / (2 T^2) (module docstring); the speed bounds are separate (``lb``, ``ub``).
+        ``depth``: the frame's measured depths (n,) [m], None to estimate them.
         """
         F, T, N = self._F, self._T, self.horizon
-        L = self.interaction_matrix(features) / F  # on normalized features
+        L = self.interaction_matrix(features, depth) / F  # on normalized features
         e0 = (features - self._target) / F
         AL = self._A_img.dot(L)
         P, q, G = np.empty((6 * N, 6 * N)), np.empty(6 * N), np.empty((N * AL.shape[0], 6 * N))
@@ -293,7 +297,7 @@ class MpcIBVS(Controller):
 
     def update(self, frame: CameraFrame, reading: JointReading | None) -> None:
         """One camera frame: solve the QP and keep its first move (module docstring)."""
-        P, q, G, h = self.qp(frame.features)
+        P, q, G, h = self.qp(frame.features, frame.depth)
         tic = time.perf_counter()
         x = self._solve(P, q, G, h)
         solved = x is not None

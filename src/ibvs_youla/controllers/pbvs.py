@@ -25,8 +25,10 @@ image instead, and the camera centre leaves the line when the rotation is large.
 
 The current pose comes from the image at every frame:
 :func:`~ibvs_youla.estimation.monocular_pose.estimate_camera_pose` (stereo P3P for a
-``StereoCamera``, three or more markers; OpenCV SQPnP for a ``PinholeCamera``, four or more); the
-desired pose is the task's ``T_O_C_target``. No pseudo-inverse and so no singular-value cut-off:
+``StereoCamera``, three or more markers; OpenCV SQPnP for a ``PinholeCamera``, four or more; for a
+frame with measured depths, ``sensor="depth"``, the points back-projected at them fitted to the
+markers, Kabsch, as the stereo camera's triangulated points); the desired pose is the task's
+``T_O_C_target``. No pseudo-inverse and so no singular-value cut-off:
 L_e is inverted in closed form.
 
 Sampled loop (the free-flying camera holds the twist over T and integrates it with the
@@ -159,7 +161,7 @@ class PBVS(Controller):
 
     def update(self, frame: CameraFrame, reading: JointReading | None) -> None:
         """Estimate the pose from the frame, e = (c*t_c, theta u), twist of (PBVS)."""
-        T_O_C = self.pose_estimator(frame.features)
+        T_O_C = self.pose_estimator(frame.features, frame.depth)
         T_target_C = self._T_target_O @ T_O_C  # c*T_c
         R, t = T_target_C[:3, :3], T_target_C[:3, 3]
         tu = theta_u(R)

@@ -42,8 +42,9 @@ Rotation and depth ratio (``rotation_from``):
 
 * ``"pose"`` (any camera): the current pose from the image by
   :func:`~ibvs_youla.estimation.monocular_pose.estimate_camera_pose` (stereo P3P, or OpenCV SQPnP
-  for a monocular camera), the desired one from the task: c*T_c gives theta u, and the reference
-  point's depth in {c} gives rho.
+  for a monocular camera; from the measured depths by Kabsch when the frame carries them, as
+  PBVS), the desired one from the task: c*T_c gives theta u, and the reference point's depth in
+  {c} gives rho.
 * ``"homography"`` (monocular camera, four or more coplanar markers): Malis et al.'s route, no
   current pose; of the 3-D model it uses the plane's normal n* and the depth Z* at the target (the
   scale of L_v, which Malis et al. estimate), both from the task. The homography H with m ~ H m*
@@ -312,7 +313,7 @@ class TwoHalfD(Controller):
                 rho = H[2] @ np.array([*self._m_target[i], 1.0])
                 x, y = m[i]
         else:
-            T_O_C = self.pose_estimator(features)
+            T_O_C = self.pose_estimator(features, frame.depth)
             R_target_C = (self._T_target_O @ T_O_C)[:3, :3]
             X, Y, Z = (self._reference_O - T_O_C[:3, 3]) @ T_O_C[:3, :3]  # reference in {c}
             rho = Z / self._Z_target

@@ -13,7 +13,9 @@ coplanar points: on 50 seeded views of a 20 cm square it is off by more than 1 m
 (Appendix C) for a :class:`~ibvs_youla.model.camera.StereoCamera`, PnP for a
 :class:`~ibvs_youla.model.camera.PinholeCamera`. :class:`CameraPoseEstimator` is the same
 function for one camera and one set of points, checked once: the controllers call it at every
-frame with the sensor's features (it checks only their shape), and get the same poses.
+frame with the sensor's features (it checks only their shape), and get the same poses. Given a
+frame's measured depths too (a depth sensor, an RGB-D camera), it fits the points back-projected
+at them to the known points (Kabsch, as stereo P3P does with triangulated points): no PnP.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ import numpy as np
 
 from .._validation import as_array, instance, one_of
 from ..exceptions import InvalidArrayError, InvalidParameterError, PoseEstimationError
-from ..model.camera import PinholeCamera, StereoCamera, triangulate_points
+from ..model.camera import PinholeCamera, StereoCamera, points_at_depths, triangulate_points
 from .stereo_pose import check_marker_geometry, estimate_pose, kabsch_centred
 
 __all__ = ["PNP_METHODS", "CameraPoseEstimator", "estimate_camera_pose", "estimate_pose_monocular"]
@@ -142,13 +144,13 @@ class CameraPoseEstimator:
         P = check_marker_geometry(P_ref, "P_ref")
         n = P.shape[0]
         self.camera = camera
+        mean = np.add.reduce(P, axis=0) / n  # as stereo_pose.kabsch
+        self._centred, self._mean = P - mean, mean
         if isinstance(camera, StereoCamera):
             unknown = sorted(set(options) - {"allow_behind"})
             if unknown:
                 raise InvalidParameterError("options", unknown, "allow_behind (stereo P3P)")
             self._allow_behind = bool(options.get("allow_behind", False))
-            mean = np.add.reduce(P, axis=0) / n  # as stereo_pose.kabsch
-            self._centred, self._mean = P - mean, mean
             self._shapes = ((n, 3), (3 * n,))
         elif isinstance(camera, PinholeCamera):
             import cv2
@@ -169,8 +171,13 @@ class CameraPoseEstimator:
         self._n = n
         self._last: tuple[bytes, np.ndarray] | None = None  # features of the last call, its pose
 
-    def __call__(self, features: np.ndarray) -> np.ndarray:
-        """T_ref_C (4, 4) from the camera's features (3n,) or (n, 3) stereo, (2n,) or (n, 2) monocular."""
+    def __call__(self, features: np.ndarray, depth: np.ndarray | None = None) -> np.ndarray:
+        """T_ref_C (4, 4) from the camera's features (3n,) or (n, 3) stereo, (2n,) or (n, 2) monocular.
+
+        With ``depth``, each point's measured depth Z_C (n,) [m] (a depth sensor): the points
+        back-projected at those depths (``points_at_depths``), fitted to the known points
+        (Kabsch), for either camera.
+        """
         shape = getattr(features, "shape", None)
         if shape not in self._shapes:
             raise InvalidArrayError(
@@ -178,11 +185,13 @@ class CameraPoseEstimator:
                 f"an array of shape {np.shape(features)}",
                 f"shape {self._shapes[0]} or {self._shapes[1]} for {self._n} points",
             )
-        key = features.tobytes()
+        key = features.tobytes() if depth is None else features.tobytes() + depth.tobytes()
         if self._last is not None and self._last[0] == key:
             return self._last[1].copy()
         n = self._n
-        if isinstance(self.camera, StereoCamera):
+        if depth is not None:
+            T = kabsch_centred(points_at_depths(self.camera, features, depth), self._centred, self._mean)
+        elif isinstance(self.camera, StereoCamera):
             P_C = triangulate_points(self.camera, features.reshape(n, 3), self._allow_behind)
             T = kabsch_centred(P_C, self._centred, self._mean)
         else:

@@ -506,6 +506,23 @@ def triangulate_points(camera: StereoCamera, features: np.ndarray, allow_behind:
     return np.array(out, dtype=float).reshape(p.shape[0], 3)
 
 
+def points_at_depths(
+    camera: StereoCamera | PinholeCamera, features: np.ndarray, depth: np.ndarray
+) -> np.ndarray:
+    """Points P_C (n, 3) [m] back-projected from features at measured depths Z (n,) [m].
+
+    X = u Z / F, Y = v Z / F for a pinhole camera ([u, v] per point); X = (u_l + u_r) Z / (2 F),
+    Y = v Z / F for a stereo camera (the mid-baseline abscissa, ERRATA 12). Does not validate its
+    input (``PinholeCamera.back_project`` is the checked form for a pinhole camera) and does not
+    check the depths: a controller's kernels check them where a depth enters (the interaction
+    matrix).
+    """
+    n, F = depth.shape[0], camera.focal_length
+    p = features.reshape(n, -1)
+    u = 0.5 * (p[:, 0] + p[:, 1]) if p.shape[1] == 3 else p[:, 0]
+    return np.column_stack((u * (depth / F), p[:, -1] * (depth / F), depth))
+
+
 def visible_points(camera: StereoCamera | PinholeCamera, P_C: np.ndarray) -> list[bool]:
     """Per point, in front, in view of every lens and within depth_range: ``camera.visibility(P_C).visible``.
 

@@ -14,8 +14,8 @@ controller updates on it. Then, every tick, in this order:
 A run ends early, with a status in the result rather than an exception, when the true
 camera loses a marker (``"markers_lost"``: behind the camera, seen by the sensor) or the
 controller's own models fail on a valid image (``"estimate_failed"``: e.g. no IK branch
-within the joint limits reaches the pose seen, Eq. (62), a PnP finds no pose, or a believed
-marker lies behind the camera). A diverging plant raises
+within the joint limits reaches the pose seen, Eq. (62), a PnP finds no pose, a believed
+marker lies behind the camera, or an image feature of the law has no value there). A diverging plant raises
 :class:`~ibvs_youla.exceptions.SimulationDivergedError`, and Ctrl-C a ``KeyboardInterrupt``,
 each with the samples recorded so far in ``error.partial`` (status ``"diverged"``,
 ``"interrupted"``). A controller method that raises, or a command that is not an array of the
@@ -40,6 +40,7 @@ import numpy as np
 from ..controllers.base import CommandType, Controller
 from ..exceptions import (
     ControllerError,
+    FeatureSingularityError,
     InvalidCommandError,
     InvalidDisparityError,
     InvalidParameterError,
@@ -172,6 +173,7 @@ class ServoLoop:
                         InvalidDisparityError,
                         UnreachablePoseError,
                         PoseEstimationError,
+                        FeatureSingularityError,
                     ) as err:
                         # the controller's own models failed on a valid image (e.g. Eq. (62) has no
                         # IK branch within the joint limits, or a belief puts a marker behind the camera)

@@ -9,6 +9,9 @@ A row is [t, camera pose (16), features (m), visibility (n, as 0/1), each signal
 :func:`record_row` writes one in a compiled call (:func:`ibvs_youla._jit.jit`) when every
 part has its announced size; anything else takes the checked path of :meth:`ResultRecorder.record`,
 which names the part whose shape is wrong (the reference the compiled call is pinned to).
+A compiled loop writes rows itself: :meth:`ResultRecorder.reserve` gives it the table,
+:meth:`ResultRecorder.advance` counts what it wrote, :meth:`ResultRecorder.record_frames` appends
+its frame log.
 """
 
 from __future__ import annotations
@@ -128,6 +131,50 @@ class ResultRecorder:
 
     def __len__(self) -> int:
         return self._n
+
+    @property
+    def row_sizes(self) -> np.ndarray:
+        """Sizes of a row's parts after t and the pose: features, visibility, each signal (record_row)."""
+        return self._sizes
+
+    def reserve(self, n_rows: int) -> np.ndarray:
+        """The tick table, grown to hold ``n_rows`` samples after those recorded, for a compiled writer.
+
+        The writer fills rows ``len(self)`` on with :func:`record_row` (``row_sizes``), then calls
+        :meth:`advance`; the table it got is valid until the next :meth:`record` or :meth:`reserve`.
+        """
+        need = self._n + int(n_rows)
+        if need > self._table.shape[0]:
+            grown = np.empty((need, self._table.shape[1]))
+            grown[: self._n] = self._table[: self._n]
+            self._table = grown
+        return self._table
+
+    def advance(self, n_rows: int) -> None:
+        """Count ``n_rows`` samples written into the table of :meth:`reserve`.
+
+        Raises:
+            InvalidParameterError: more rows than reserved, or fewer than none.
+        """
+        if not 0 <= n_rows <= self._table.shape[0] - self._n:
+            raise InvalidParameterError(
+                "n_rows", n_rows, f"0 to {self._table.shape[0] - self._n} (the rows reserved)"
+            )
+        self._n += int(n_rows)
+
+    def record_frames(
+        self, t: np.ndarray, features: np.ndarray, visible: np.ndarray, update_time: np.ndarray
+    ) -> None:
+        """Append m camera frames at once (``record_frame`` of each row).
+
+        Times (m,) [s], features (m, n_features), visibility (m, n), update times (m,) [s]. The
+        rows are kept by reference (as :meth:`record_frame`'s arrays): do not modify them after.
+        """
+        frame_t, frame_features, frame_visible, update_times = self._frames
+        frame_t.extend(t.tolist())
+        frame_features.extend(features)
+        frame_visible.extend(visible)
+        update_times.extend(update_time.tolist())
 
     @staticmethod
     def estimate_bytes(

@@ -35,14 +35,19 @@ class MarkerSensor:
         markers_O: Marker positions (n, 3) in the base frame [m].
         virtual_points: Project markers behind the camera too (the paper's virtual points,
             ERRATA 13); without it a marker with Z_C <= 0 raises PointBehindCameraError.
+        depth: Measure each marker's depth Z_C with its features (an RGB-D camera; module
+            docstring).
 
     Raises:
-        InvalidParameterError: not a camera, or too few markers for it.
+        InvalidParameterError: not a camera, too few markers for it, or ``depth`` with a
+            stereo camera.
         InvalidArrayError, DegenerateMarkersError: markers not a finite (n, 3) array of
             non-collinear points.
     """
 
-    def __init__(self, camera: Any, markers_O: Any, virtual_points: bool = False) -> None:
+    def __init__(
+        self, camera: Any, markers_O: Any, virtual_points: bool = False, depth: bool = False
+    ) -> None:
         if not isinstance(camera, (StereoCamera, PinholeCamera)):
             raise InvalidParameterError("camera", type(camera).__name__, "a StereoCamera or a PinholeCamera")
         markers = check_marker_geometry(markers_O, "markers_O")
@@ -58,6 +63,14 @@ class MarkerSensor:
         self.markers_O = markers.copy()
         self.markers_O.setflags(write=False)
         self.virtual_points = flag(virtual_points, "virtual_points")
+        self.measures_depth = flag(depth, "depth")
+        if self.measures_depth and isinstance(camera, StereoCamera):
+            raise InvalidParameterError(
+                "depth",
+                True,
+                "False for a StereoCamera (its features carry the depths, by disparity); a depth "
+                "sensor is a PinholeCamera and a depth channel (RGB-D)",
+            )
         self._params, self._lens_x = camera_parameters(camera)  # for the compiled projection
 
     @property
@@ -80,8 +93,18 @@ class MarkerSensor:
         P_C = self.points_in_camera(as_pose(T_O_C, "T_O_C"))
         return project_points(self.camera, P_C, self.virtual_points)
 
+    def with_depth(self) -> MarkerSensor:
+        """The same camera and markers, measuring depth too (``sensor="depth"``; module docstring)."""
+        return MarkerSensor(self.camera, self.markers_O, self.virtual_points, depth=True)
+
+    def spec(self) -> dict[str, Any]:
+        """Plain data describing the sensor, stored with a run that chose it."""
+        return {"name": "depth" if self.measures_depth else "ideal"}
+
     def measure(self, T_O_C: np.ndarray, t: float) -> CameraFrame:
         """One frame from the true camera pose T_O_C (4, 4), as produced by a plant (unchecked).
+
+        With ``depth``, the frame carries each marker's depth Z_C (n,) [m].
 
         Raises:
             PointBehindCameraError: a marker at Z_C <= 0 (at |Z_C| ~ 0 with virtual points).
@@ -90,4 +113,4 @@ class MarkerSensor:
         features, visible, bad = measure_features(P_C, self._params, self._lens_x, self.virtual_points)
         if bad >= 0:  # a depth the projection rejects: the reference raises its error
             project_points(self.camera, P_C, self.virtual_points)
-        return CameraFrame(t, features, visible)
+        return CameraFrame(t, features, visible, P_C[:, 2].copy() if self.measures_depth else None)

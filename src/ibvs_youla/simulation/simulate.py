@@ -39,6 +39,7 @@ from ..model.arm import Arm
 from ..model.camera import PinholeCamera, StereoCamera, default_camera
 from ..scenarios import Scenario
 from .actuation import actuation_chain
+from .compiled_loop import CompiledLoop
 from .disturbances import Disturbances
 from .free_camera import FreeCameraPlant
 from .kinematic_arm import KinematicArmPlant
@@ -52,7 +53,8 @@ from .settings import SimulationSettings
 __all__ = ["PLANTS", "SENSORS", "Beliefs", "default_camera", "simulate"]
 
 PLANTS = ("dynamic", "kinematic", "free-camera")
-SENSORS = ("ideal", "images")
+LOOPS = ("auto", "plug-in")
+SENSORS = ("ideal", "depth", "images")
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,6 +138,7 @@ def simulate(
     sensor: str | Callable[[MarkerSensor], Any] | None = None,
     disturbances: Disturbances | None = None,
     progress: bool = False,
+    loop: str = "auto",
 ) -> SimulationResult:
     """Simulate one scenario in closed loop and return every signal as data.
 
@@ -159,9 +162,11 @@ def simulate(
         arm: The true arm; default ``Arm.irb4600()`` (not built for a free-camera scenario).
         beliefs: Where the controller's models differ from the truth (:class:`Beliefs`).
         sensor: What measures each frame. None (or ``"ideal"``): the true projections,
-            :class:`~.sensor.MarkerSensor`; ``"images"``: rendered images and detected
-            centres with default settings, :class:`~.image_sensor.ImageSensor`; or a function
-            of the true ``MarkerSensor`` returning the sensor to use (an object with
+            :class:`~.sensor.MarkerSensor`; ``"depth"``: the same with each point's depth in
+            every frame (an RGB-D camera, a ``PinholeCamera`` only: the laws that need depths
+            use the measured ones, ``MarkerSensor(..., depth=True)``); ``"images"``: rendered
+            images and detected centres with default settings, :class:`~.image_sensor.ImageSensor`;
+            or a function of the true ``MarkerSensor`` returning the sensor to use (an object with
             ``measure(T_O_C, t) -> CameraFrame``; e.g. ``lambda truth: ImageSensor(truth,
             DiscMarkers(0.04), ImagingSettings(blur_sigma_px=1.0))``, or a wrapper that disturbs
             ``truth.measure``). The goal features stay the true projections at the target.
@@ -169,6 +174,11 @@ def simulate(
             mismatch, latency, actuator limits (:class:`~.disturbances.Disturbances`); each
             wraps a role built here, and ``None`` or all-off wraps nothing.
         progress: Show a progress bar (tqdm) on stderr.
+        loop: ``"auto"``: the compiled frame path (:mod:`.compiled_loop`: one compiled call per
+            frame, the same result to rounding) when every role is the library's own and one it
+            covers (classical IBVS, the ideal sensor with or without depth, the free camera or
+            the kinematic arm), else the plug-in loop (:mod:`.loop`); ``"plug-in"``: always the
+            plug-in loop. ``result.metadata["loop"]`` says which ran.
 
     Returns:
         The result. ``result.status`` is ``"complete"``; ``"markers_lost"`` when a marker
@@ -194,6 +204,7 @@ def simulate(
     """
     duration = positive(duration, "duration", unit="s")
     one_of(plant, "plant", PLANTS)
+    one_of(loop, "loop", LOOPS)
     for name, value, kind in (
         ("scenario", scenario, Scenario),
         ("settings", settings, SimulationSettings),
@@ -237,6 +248,8 @@ def simulate(
         model_arm = world.arm if beliefs.arm is None else beliefs.arm
         if settings.model_inertia_scale != 1.0:
             model_arm = model_arm.with_inertia_scale(settings.model_inertia_scale)
+    if settings.secondary_task is not None:
+        _check_secondary_task(settings, ctrl, model_arm)
     chain = actuation_chain(
         ctrl.command_type,
         world.plant,
@@ -244,6 +257,7 @@ def simulate(
         q_start=scenario.q_start,
         tau_in=settings.tau_in,
         dt=world.dt,
+        secondary_task=settings.secondary_task,
     )
     joints = model_arm is not None
     task = ServoTask(
@@ -314,19 +328,16 @@ def simulate(
         signals=shapes,
         metadata=metadata,
     )
-    loop = ServoLoop(
-        ctrl,
-        measuring,
-        world.plant,
-        chain,
-        world.dt,
-        n_ticks,
-        world.ticks_per_frame,
-        record_every,
-        recorder,
-        command_signals,
-    )
-    return loop.run(progress, scenario.name or "simulate")
+    label = scenario.name or "simulate"
+    roles = (ctrl, measuring, world.plant, chain, world.dt, n_ticks, world.ticks_per_frame, record_every)
+    compiled = CompiledLoop.covering(*roles, recorder) if loop == "auto" else None
+    if compiled is not None:
+        recorder.metadata["loop"] = "compiled"
+        result = compiled.run(progress, label)
+        if result is not None:
+            return result
+    recorder.metadata["loop"] = "plug-in"  # the roles' loop; also where the compiled one declined
+    return ServoLoop(*roles, recorder, command_signals).run(progress, label)
 
 
 def _scene_for(ctrl: Controller, scenario: Scenario) -> Any:
@@ -352,12 +363,15 @@ def _sensor(sensor: Any, truth: MarkerSensor) -> Any:
     """The sensor role: the truth, the image sensor, or what a sensor function makes of the truth."""
     if sensor is None:
         return truth
-    valid = f"None, {' or '.join(map(repr, SENSORS))}, or a function of the true MarkerSensor returning one"
+    names = ", ".join(map(repr, SENSORS[:-1])) + f" or {SENSORS[-1]!r}"
+    valid = f"None, {names}, or a function of the true MarkerSensor returning one"
     if isinstance(sensor, str):
         if sensor not in SENSORS:
             raise InvalidParameterError("sensor", sensor, valid)
         if sensor == "ideal":
             return truth
+        if sensor == "depth":
+            return truth.with_depth()
         from .image_sensor import ImageSensor
 
         return ImageSensor(truth)
@@ -409,6 +423,26 @@ def _controller(controller: Any, adaptive: bool, settings: SimulationSettings) -
         )
     _no_paper_gains(settings, type(controller).__name__)
     return controller
+
+
+def _check_secondary_task(settings: SimulationSettings, ctrl: Controller, arm: Arm | None) -> None:
+    """A secondary task needs a redundant arm and a controller whose camera twist the actuation converts."""
+    task = settings.secondary_task.to_dict()  # type: ignore[union-attr]
+    if arm is None or not arm.redundant:
+        where = "the free-flying camera" if arm is None else f"{arm.name!r} ({arm.nq} joints)"
+        raise InvalidParameterError(
+            "settings.secondary_task",
+            task,
+            f"None on {where}: a secondary task acts in the null space of J_C, which needs more than "
+            "six joints",
+        )
+    if CommandType.parse(ctrl.command_type) is not CommandType.CAMERA_TWIST:
+        raise InvalidParameterError(
+            "settings.secondary_task",
+            task,
+            f"None for {ctrl.name!r}, which commands {CommandType.parse(ctrl.command_type).value}: the task "
+            "is added where a camera twist becomes joint velocities (the twist-commanding methods)",
+        )
 
 
 def _no_paper_gains(settings: SimulationSettings, who: str) -> None:
@@ -476,6 +510,8 @@ def _arm_world(
             f">= 1/tau_in = {1.0 / settings.tau_in:g} Hz on the dynamic arm: the inner loop (Eq. (33)-(46)) "
             "runs at the joint rate and needs a period <= tau_in",
         )
+    if plant == "dynamic" and np.any(arm.damping > 0.0):
+        _check_damping_is_not_stiff(arm, scenario.q_true_start, settings)
     if plant == "dynamic":
         saturate = settings.saturate or disturbances.limit_scale is not None
         world_plant: Any = ArmPlant(
@@ -497,6 +533,31 @@ def _arm_world(
         arm.camera_pose(scenario.q_true_start),
         arm.camera_pose(scenario.q_target),
     )
+
+
+RK4_REAL_STABILITY = 2.785  # RK4 is stable for dt * lambda <= 2.785 on the negative real axis
+
+
+def _check_damping_is_not_stiff(arm: Arm, q: np.ndarray, settings: SimulationSettings) -> None:
+    """Refuse a joint period at which RK4 cannot integrate the arm's damping (it would diverge at once).
+
+    The viscous damping B dq with the mass matrix M(q) makes the joint velocities decay at the
+    rates of the eigenvalues of M(q)^-1 B (the stiffest, a light link with a large URDF damping:
+    the xArm7's wrist, 1.4e4 1/s); RK4 at period dt is stable for rate * dt <= 2.785. Checked at
+    the start configuration.
+    """
+    M = arm.mass_matrix(q)
+    rate = float(np.linalg.eigvals(np.linalg.solve(M, np.diag(arm.damping))).real.max())  # [1/s]
+    if rate * settings.dt > RK4_REAL_STABILITY:
+        needed = rate / RK4_REAL_STABILITY
+        raise InvalidParameterError(
+            "settings.joint_rate_hz",
+            settings.joint_rate_hz,
+            f">= {needed:.4g} Hz for {arm.name!r} on the dynamic arm: its joint damping decays the joint "
+            f"speeds at up to {rate:.4g} 1/s at the start (light links, large damping), which fixed-step RK4 "
+            f"integrates only with a period below {RK4_REAL_STABILITY} / {rate:.4g} s; or a smaller damping "
+            "(the arm's damping= argument)",
+        )
 
 
 def _free_camera_world(scenario: Scenario, arm: Arm | None, settings: SimulationSettings) -> _World:

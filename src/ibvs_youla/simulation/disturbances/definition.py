@@ -9,8 +9,9 @@ undisturbed one, bit for bit:
 * images (:class:`~ibvs_youla.simulation.image_sensor.ImageSensor`): every frame rendered as
   images (5 cm discs, blur, sensor noise) and the markers detected in them, in place of the true
   projections; a marker the images do not show is missing (NaN), not filled in with the truth;
-* sensing (:mod:`.sensing`): pixel noise, quantization, dropouts, wrapped around the sensor,
-  and a frame with a missing marker withheld from the controller (:mod:`.policy`);
+* sensing (:mod:`.sensing`): pixel noise, quantization, dropouts and, for a sensor that
+  measures depth (``sensor="depth"``), depth noise, wrapped around the sensor, and a frame with
+  a missing marker withheld from the controller (:mod:`.policy`);
 * calibration (:mod:`.calibration`): the controller's beliefs (camera, hand-eye transform,
   markers); the principal point also shifts the features it receives (:mod:`.sensing`);
 * model mismatch and actuator limits (:mod:`.plant_arm`): the dynamic plant's arm (scaled
@@ -18,8 +19,8 @@ undisturbed one, bit for bit:
 * timing (:mod:`.timing`): a latency of k camera frames, wrapped around the sensor (the camera
   and joint-loop rates are settings: ``SimulationSettings(camera_rate_hz=..., joint_rate_hz=...)``).
 
-The random draws (pixel noise, dropouts, marker errors, image noise) come from four independent
-streams of ``numpy.random.SeedSequence(seed)``.
+The random draws (pixel noise, dropouts, marker errors, image noise, depth noise) come from five
+independent streams of ``numpy.random.SeedSequence(seed)``.
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ _VECTORS = {  # tuple fields -> length
     "hand_eye_rotation_deg": 3,
     "marker_offset_m": 3,
 }
-SENSING = ("pixel_noise_px", "quantize", "dropout_probability", "principal_point_offset_px")
+SENSING = ("pixel_noise_px", "quantize", "dropout_probability", "principal_point_offset_px", "depth_noise_m")
 IMAGES = ("rendered_images", "image_blur_px", "image_noise_grey")
 CALIBRATION = (
     "focal_length_scale",
@@ -57,7 +58,7 @@ PLANT = ("plant_inertia_scale", "viscous_friction", "coulomb_friction", "limit_s
 _PARAMETERS = {  # a parameter of other disturbances -> those disturbances
     "normalized_focal_px": ("pixel_noise_px", "quantize", "dropout_probability", "principal_point_offset_px"),
     "coulomb_speed": ("coulomb_friction",),
-    "seed": ("pixel_noise_px", "dropout_probability", "marker_sigma_m", "image_noise_grey"),
+    "seed": ("pixel_noise_px", "dropout_probability", "marker_sigma_m", "image_noise_grey", "depth_noise_m"),
 }
 
 
@@ -129,6 +130,10 @@ class Disturbances:
         limit_scale: The dynamic plant clips joint speeds and torques at this fraction of the
             arm's limits (None: no clipping beyond ``SimulationSettings.saturate``).
         seed: Seed of the noise, dropout and marker-error draws (an integer >= 0).
+        depth_noise_m: Standard deviation of the measured depths' noise at a depth of 1 m [m];
+            at depth Z it is ``depth_noise_m * Z**2`` (the error of a triangulating depth
+            sensor, structured light or stereo, grows with the square of the depth: Khoshelham
+            & Elberink 2012). Needs a sensor that measures depth (``sensor="depth"``).
 
     Raises:
         InvalidParameterError: a negative noise, latency, friction or sigma; a scale <= 0; a
@@ -158,6 +163,7 @@ class Disturbances:
     latency_frames: int = 0
     limit_scale: float | None = None
     seed: int = 0
+    depth_noise_m: float = 0.0
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -198,6 +204,7 @@ class Disturbances:
                 "hand_eye_rotation_deg", self.hand_eye_rotation_deg, "a rotation vector of norm < 180 deg"
             )
         set_(self, "marker_sigma_m", non_negative(self.marker_sigma_m, "marker_sigma_m", unit="m"))
+        set_(self, "depth_noise_m", non_negative(self.depth_noise_m, "depth_noise_m", unit="m at 1 m"))
         set_(self, "viscous_friction", _friction(self.viscous_friction, "viscous_friction", "N m s/rad"))
         set_(self, "coulomb_friction", _friction(self.coulomb_friction, "coulomb_friction", "N m"))
         if self.limit_scale is not None:
@@ -308,6 +315,11 @@ class Disturbances:
         )
 
     @property
+    def depth_seed(self) -> np.random.SeedSequence:
+        """Seed of the depth noise: the fifth stream of SeedSequence(seed)."""
+        return np.random.SeedSequence(self.seed).spawn(5)[4]
+
+    @property
     def image_seed(self) -> int:
         """Seed of the rendered images' noise: the fourth stream of SeedSequence(seed)."""
         return int(np.random.SeedSequence(self.seed).spawn(4)[3].generate_state(1)[0])
@@ -323,7 +335,8 @@ class Disturbances:
         Raises:
             InvalidParameterError: ``rendered_images`` around a sensor other than the true
                 :class:`~ibvs_youla.simulation.sensor.MarkerSensor` (e.g. ``sensor="images"``:
-                give one or the other).
+                give one or the other) or around one that measures depth (rendered images have
+                no depth channel); ``depth_noise_m`` with a sensor that measures no depth.
         """
         from .sensing import DisturbedSensor
         from .timing import DelayedSensor
@@ -341,7 +354,7 @@ class Disturbances:
             from ..rendering import ImagingSettings
             from ..sensor import MarkerSensor
 
-            if not isinstance(sensor, MarkerSensor):
+            if not isinstance(sensor, MarkerSensor) or sensor.measures_depth:
                 raise InvalidParameterError(
                     "sensor",
                     type(sensor).__name__,
@@ -350,6 +363,12 @@ class Disturbances:
                 )
             imaging = ImagingSettings(self.image_blur_px, self.image_noise_grey, seed=self.image_seed)
             sensor = ImageSensor(sensor, imaging=imaging, missing="nan")
+        if self.depth_noise_m and not getattr(sensor, "measures_depth", False):
+            raise InvalidParameterError(
+                "depth_noise_m",
+                self.depth_noise_m,
+                "0.0 with a sensor that measures no depth; or sensor='depth' (an RGB-D camera)",
+            )
         if self._any(SENSING):
             sensor = DisturbedSensor(
                 sensor,
@@ -360,6 +379,8 @@ class Disturbances:
                 normalized_focal_px=self.normalized_focal_px,
                 noise_rng=noise_rng,
                 dropout_rng=dropout_rng,
+                depth_noise_m=self.depth_noise_m,
+                depth_rng=np.random.default_rng(self.depth_seed),
             )
         if self.latency_frames:
             sensor = DelayedSensor(sensor, self.latency_frames)

@@ -18,15 +18,18 @@ real camera and its detector would:
 5. **dropouts**: on every frame but the first (a run starts on a complete frame), each marker is
    missing with probability ``dropout`` (independent Bernoulli draws): its features become NaN
    in both images and its ``visible`` flag False. What a controller does with such a frame is
-   :class:`~.policy.HoldOnMissingFeatures`.
+   :class:`~.policy.HoldOnMissingFeatures`; its measured depth, if any, is NaN too;
+6. **depth noise** (a sensor that measures depth, ``sensor="depth"``): an independent
+   N(0, (sigma_1 Z^2)^2) draw [m] on every measured depth Z, sigma_1 the standard deviation at
+   1 m (a triangulating depth sensor's error grows with Z^2).
 
 For the normalized camera (``PinholeCamera.normalized()``, F/p = 1 px: pixels mean nothing)
 the pixel pitch is taken as ``1 / focal_px`` of a nominal camera with ``focal_px`` pixels of
 focal length (:attr:`~.definition.Disturbances.normalized_focal_px`), the principal point at
 the origin of the normalized plane.
 
-The noise and dropout draws come from two independent seeded streams, so turning one on does
-not change the other's draws.
+The noise, dropout and depth-noise draws come from three independent seeded streams, so turning
+one on does not change the others' draws.
 """
 
 from __future__ import annotations
@@ -77,6 +80,8 @@ class DisturbedSensor:
         normalized_focal_px: Focal length [px] of the nominal pixel grid of the normalized camera.
         noise_rng: Generator of the noise draws.
         dropout_rng: Generator of the dropout draws.
+        depth_noise_m: Standard deviation of the depth noise at 1 m [m] (0: none).
+        depth_rng: Generator of the depth-noise draws.
 
     Raises:
         InvalidParameterError: quantization of a camera with skew (its pixel grid is not modelled).
@@ -93,6 +98,8 @@ class DisturbedSensor:
         normalized_focal_px: float = 800.0,
         noise_rng: np.random.Generator | None = None,
         dropout_rng: np.random.Generator | None = None,
+        depth_noise_m: float = 0.0,
+        depth_rng: np.random.Generator | None = None,
     ) -> None:
         camera = sensor.camera
         if quantize and camera.skew != 0.0:
@@ -113,6 +120,8 @@ class DisturbedSensor:
         self._dropout = float(dropout)
         self._noise_rng = noise_rng if noise_rng is not None else np.random.default_rng(0)
         self._dropout_rng = dropout_rng if dropout_rng is not None else np.random.default_rng(1)
+        self._depth_sigma = float(depth_noise_m)  # [m at 1 m]
+        self._depth_rng = depth_rng if depth_rng is not None else np.random.default_rng(2)
         self._frames = 0
 
     def __getattr__(self, name: str) -> Any:
@@ -129,7 +138,7 @@ class DisturbedSensor:
     def measure(self, T_O_C: np.ndarray, t: float) -> CameraFrame:
         """One frame of the wrapped sensor, disturbed (module docstring)."""
         frame = self.sensor.measure(T_O_C, t)
-        features, visible = frame.features, frame.visible
+        features, visible, depth = frame.features, frame.visible, frame.depth
         if self._sigma_m:
             features = features + self._sigma_m * self._noise_rng.standard_normal(features.shape[0])
         if self._quantize:
@@ -144,5 +153,9 @@ class DisturbedSensor:
                 features = np.array(features, dtype=float)
                 features.reshape(self.n_points, -1)[missing] = np.nan
                 visible = visible & ~missing
+                if depth is not None:
+                    depth = np.where(missing, np.nan, depth)
+        if self._depth_sigma and depth is not None:
+            depth = depth + self._depth_sigma * depth**2 * self._depth_rng.standard_normal(depth.shape[0])
         self._frames += 1
-        return frame._replace(features=features, visible=visible)  # an image, if any, passes
+        return frame._replace(features=features, visible=visible, depth=depth)  # an image, if any, passes

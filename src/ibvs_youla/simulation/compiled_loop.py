@@ -1,0 +1,249 @@
+"""The compiled frame path: the servo loop of classical IBVS on an ideal plant, one compiled call per frame.
+
+:func:`~ibvs_youla.simulate` builds the four roles of :mod:`.loop` for every run. When each of them
+is the library's own and one the kernels of :mod:`.frame_kernels` cover, it runs
+:class:`CompiledLoop` instead of the plug-in :class:`~.loop.ServoLoop` (``simulate(...,
+loop="plug-in")`` keeps the plug-in loop):
+
+* the controller: a :class:`~ibvs_youla.controllers.ibvs.ClassicalIBVS` (``ibvs-current``,
+  ``ibvs-desired``, ``ibvs-mean``; a constant or adaptive gain), not a subclass nor a wrapper;
+* the sensor: the ideal :class:`~.sensor.MarkerSensor`, with or without depth, not wrapped by a
+  disturbance (noise, dropouts, latency, images);
+* the plant: the free camera (:class:`~.free_camera.FreeCameraPlant`), or the kinematic arm
+  (:class:`~.kinematic_arm.KinematicArmPlant`) following the joint velocities of
+  :class:`~.actuation.TwistToJointVelocity`, any number of joints.
+
+Beliefs (the controller's camera and markers) and calibration disturbances, which change models and
+not roles, are covered. The depths of L come from the depth sensor (``sensor="depth"``) or the
+stereo camera's triangulation, or are not needed (``ibvs-desired``). A monocular law at the current
+features without measured depths is not covered: its depths come from OpenCV's SQPnP pose, whose
+stopping tolerance turns a last-bit difference of the features into differences of ~1e-11 in the
+pose (measured: 1e-11 on the tutorial case through these kernels), so no kernel of other rounding
+can equal the plug-in loop to 1e-12 there; it runs the plug-in loop. Per frame the free camera is
+one compiled call; a tick of the kinematic arm is Pinocchio's camera pose and J_C (the arm's
+kinematics) and one compiled call.
+
+It gives the plug-in loop's result to rounding (``tests/test_compiled_frame_path.py``: 1e-12 on every
+method x plant x camera covered), with ``metadata["loop"] = "compiled"``. Where the plug-in loop
+would stop early or raise (a marker lost, a failed estimate, a diverging plant, an invalid first
+command), a kernel declines, and the run is made again by the plug-in loop from the start, which
+gives its status or error. What differs: ``metadata["phase_seconds"]`` has the whole loop in
+``frame`` (the phases are one call), ``update_time`` is each frame's compiled call (the sensor,
+the law, the recording and the plant step, not the law alone), and the controller object is reset
+but not stepped (its ``update`` is not called; its last twist is not kept).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from ..controllers.base import CommandType
+from ..controllers.ibvs import INTERACTIONS, PINV_THRESHOLD, AdaptiveGain, ClassicalIBVS
+from ..model.camera import StereoCamera
+from ..model.camera_kernels import camera_parameters
+from .actuation import TwistToJointVelocity
+from .frame_kernels import (
+    DECLINED,
+    DEPTH_MEASURED,
+    DEPTH_TRIANGULATED,
+    free_camera_frame,
+    kinematic_tick,
+    pack_parameters,
+)
+from .free_camera import FreeCameraPlant
+from .kinematic_arm import KinematicArmPlant
+from .recorder import ResultRecorder
+from .results import SimulationResult
+from .sensor import MarkerSensor
+
+__all__ = ["CompiledLoop"]
+
+_FREE_SIGNALS = ("camera_twist", "ibvs_gain")
+_ARM_SIGNALS = ("q", "q_true", "dq", "camera_twist", "dq_ref", "ibvs_gain")
+
+
+class CompiledLoop:
+    """One run of classical IBVS on an ideal plant in compiled frame calls (module docstring).
+
+    Build it with :meth:`covering`, which returns None for roles it does not cover.
+    """
+
+    def __init__(
+        self,
+        controller: ClassicalIBVS,
+        sensor: MarkerSensor,
+        plant: Any,
+        chain: list[Any],
+        dt: float,
+        n_ticks: int,
+        ticks_per_frame: int,
+        record_every: int,
+        recorder: ResultRecorder,
+    ) -> None:
+        task = controller.task
+        self.plant, self.recorder, self.n_ticks = plant, recorder, n_ticks
+        self.ticks_per_frame, self.record_every = ticks_per_frame, record_every
+        self.markers_O = np.ascontiguousarray(sensor.markers_O, dtype=float)
+        gain = controller.gain
+        if isinstance(gain, AdaptiveGain):
+            gain_ = (gain.lambda_0, gain.lambda_inf, gain.lambda_dot_0, True)
+        else:
+            gain_ = (float(gain), float(gain), 0.0, False)
+        # the depths of L (ibvs-desired needs none): measured, or triangulated (covering() checks)
+        depth_from = DEPTH_MEASURED if sensor.measures_depth else DEPTH_TRIANGULATED
+        interaction = INTERACTIONS.index(controller.interaction)
+        policy = chain[0].policy if chain else None
+        self.params = pack_parameters(
+            camera_parameters(sensor.camera),
+            camera_parameters(task.camera),
+            dt=dt,
+            gain=gain_,
+            pinv_threshold=PINV_THRESHOLD,
+            interaction=interaction,
+            depth_from=depth_from,
+            virtual_points=bool(task.virtual_points),
+            measure_depth=sensor.measures_depth,
+            record_every=record_every,
+            n_ticks=n_ticks,
+            joint_policy=(True, 0.0) if policy is None else (policy.kind == "damped", policy.threshold),
+        )
+        target = np.asarray(task.feature_target, dtype=float)
+        m = target.shape[0]
+        self.law = np.zeros((m, 13))
+        self.law[:, 0] = target
+        if controller.desired_interaction_matrix is not None:
+            self.law[:, 1:7] = controller.desired_interaction_matrix
+            self.law[:, 7:13] = controller.desired_pseudo_inverse.T  # type: ignore[union-attr]
+        self.model_arm = chain[0].arm if chain else None
+
+    @classmethod
+    def covering(
+        cls,
+        controller: Any,
+        sensor: Any,
+        plant: Any,
+        chain: list[Any],
+        dt: float,
+        n_ticks: int,
+        ticks_per_frame: int,
+        record_every: int,
+        recorder: ResultRecorder,
+    ) -> CompiledLoop | None:
+        """The compiled loop of these roles, or None when one is not covered (module docstring)."""
+        if type(controller) is not ClassicalIBVS or type(sensor) is not MarkerSensor:
+            return None
+        if type(plant) is FreeCameraPlant and not chain:
+            expected = _FREE_SIGNALS
+        elif (
+            type(plant) is KinematicArmPlant
+            and len(chain) == 1
+            and type(chain[0]) is TwistToJointVelocity
+            and chain[0].secondary_task is None  # the null-space task: the plug-in loop
+            and plant.input_type is CommandType.JOINT_VELOCITY
+        ):
+            expected = _ARM_SIGNALS
+        else:
+            return None
+        if recorder.signal_names != expected or sensor.n_points != controller.task.n_points:
+            return None
+        if controller.interaction != "desired" and not (
+            sensor.measures_depth or isinstance(controller.task.camera, StereoCamera)
+        ):
+            return None  # the depths from the monocular PnP: the plug-in loop (module docstring)
+        return cls(controller, sensor, plant, chain, dt, n_ticks, ticks_per_frame, record_every, recorder)
+
+    def run(self, progress: bool = False, label: str = "simulate") -> SimulationResult | None:
+        """The run's result, or None when a kernel declined (the caller runs the plug-in loop)."""
+        n, m = self.markers_O.shape[0], self.law.shape[0]
+        n_frames = self.n_ticks // self.ticks_per_frame + 1
+        n_rows = self.n_ticks // self.record_every + 2
+        recorder = self.recorder
+        table, row0 = recorder.reserve(n_rows), len(recorder)
+        frames = np.zeros((n_frames, 2 + m + n))  # [t, features, visible, update time]
+        bar = None
+        if progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=self.n_ticks, unit="tick", desc=label, leave=False)
+        t0 = time.perf_counter()
+        self._progress = (row0, 0)  # (next table row, frames logged) so far, for an interrupted run
+        try:
+            with np.errstate(all="ignore"):
+                if type(self.plant) is FreeCameraPlant:
+                    row, done = self._free_camera(table, row0, frames, bar)
+                else:
+                    row, done = self._kinematic(table, row0, frames, bar)
+        except KeyboardInterrupt as err:  # Ctrl-C: keep what was recorded, as the plug-in loop does
+            row, done = self._progress
+            err.partial = self._result(row0, row, frames[:done], "interrupted", t0)  # type: ignore[attr-defined]
+            raise
+        finally:
+            if bar is not None:
+                bar.close()
+        if row < 0:
+            return None
+        return self._result(row0, row, frames[:done], "complete", t0)
+
+    def _result(self, row0: int, row: int, frames: np.ndarray, status: str, t0: float) -> SimulationResult:
+        recorder, m, n = self.recorder, self.law.shape[0], self.markers_O.shape[0]
+        recorder.advance(row - row0)
+        recorder.record_frames(
+            frames[:, 0], frames[:, 1 : 1 + m], frames[:, 1 + m : 1 + m + n] != 0.0, frames[:, -1]
+        )
+        seconds = time.perf_counter() - t0
+        extra: dict[str, Any] = {"phase_seconds": {"frame": seconds, "control": 0.0, "plant": 0.0}}
+        if status != "complete":
+            extra["error"] = "interrupted"
+        return recorder.result(status=status, extra_metadata=extra)
+
+    def _free_camera(self, table: np.ndarray, row: int, frames: np.ndarray, bar: Any) -> tuple[int, int]:
+        n, m = self.markers_O.shape[0], self.law.shape[0]
+        T = self.plant.camera_pose()
+        markers, law, params = self.markers_O, self.law, self.params
+        frame, twist, gain, sizes = np.zeros(m + 2 * n), np.zeros(6), np.zeros(1), self.recorder.row_sizes
+        clock = time.perf_counter
+        for k in range(self.n_ticks + 1):
+            tic = clock()
+            row = free_camera_frame(
+                k, T, markers, law, params, frame, twist, gain, table, row, sizes, frames,
+            )  # fmt: skip
+            if row < 0:
+                return DECLINED, 0
+            frames[k, -1] = clock() - tic
+            self._progress = (row, k + 1)
+            if bar is not None and k % 1000 == 0 and k:
+                bar.update(1000)
+        return row, self.n_ticks + 1
+
+    def _kinematic(self, table: np.ndarray, row: int, frames: np.ndarray, bar: Any) -> tuple[int, int]:
+        n, m = self.markers_O.shape[0], self.law.shape[0]
+        plant, arm = self.plant, self.model_arm
+        reading = plant.reading()
+        q_encoder, q_true, dq = plant.signal_values(reading)
+        state = np.array([q_true, q_encoder, dq, plant.joint_offset], dtype=float)  # (4, n_joints)
+        markers, law, params = self.markers_O, self.law, self.params
+        frame, twist, gain, sizes = np.zeros(m + 2 * n), np.zeros(6), np.zeros(1), self.recorder.row_sizes
+        clock = time.perf_counter
+        camera_fk, jacobian = plant.arm.camera_fk, arm.camera_jacobian_at  # type: ignore[union-attr]
+        every, record_every, last = self.ticks_per_frame, self.record_every, self.n_ticks
+        T = np.eye(4)
+        for k in range(last + 1):
+            tic = clock()
+            is_frame = k % every == 0
+            if is_frame or k % record_every == 0 or k == last:
+                T = camera_fk(state[0])
+            row = kinematic_tick(
+                k, is_frame, T, jacobian(state[1]), state, markers, law, params, frame, twist, gain,
+                table, row, sizes, frames, k // every,
+            )  # fmt: skip
+            if row < 0:
+                return DECLINED, 0
+            if is_frame:
+                frames[k // every, -1] = clock() - tic
+            self._progress = (row, k // every + 1)
+            if bar is not None and k % 1000 == 0 and k:
+                bar.update(1000)
+        return row, last // every + 1

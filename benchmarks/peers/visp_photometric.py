@@ -1,8 +1,8 @@
 """Photometric visual servoing against ViSP 3.5 (``vpFeatureLuminance``): the same image, pose and law.
 
-A peer benchmark, not a test. The harness ``visp_photometric.cpp`` (built here with ``g++ -O2`` and
-``pkg-config --cflags --libs visp``, Debian's ``libvisp-dev`` 3.5, into a folder outside the
-repository keyed by the source's hash; nothing is committed) is given this project's textured
+A peer benchmark, not a test. The harness ``visp_photometric.cpp`` (built and run by ``peers/visp.py``:
+``g++ -O2`` and ``pkg-config --cflags --libs visp``, Debian's ``libvisp-dev`` 3.5, into a folder
+outside the repository keyed by the source's hash; nothing is committed) is given this project's textured
 plane: the texture rounded to 8 bits (a PGM; ViSP's images are ``vpImage<unsigned char>``), the
 120 x 90 px camera of ``scenarios.textured_camera()`` and the target and start poses of
 ``scenarios.textured_plane()``. It reports:
@@ -37,11 +37,8 @@ Run: ``python benchmarks/peers/visp_photometric.py --json benchmarks/reports/pee
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import os
-import shutil
-import subprocess
 import sys
 import tempfile
 import time
@@ -62,41 +59,26 @@ from ibvs_youla.model.luminance import BORDER_PX, image_gradients, luminance_int
 from ibvs_youla.model.textured_plane import TexturedPlane, render_plane
 from ibvs_youla.simulation.rendering import ImagingSettings, finish_image
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_timing
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: _timing, peers
 from _timing import machine
+from peers import visp
 
 HERE = Path(__file__).resolve().parent
 _HALF_INV = np.array([[1.0, 0.0, -0.5], [0.0, 1.0, -0.5], [0.0, 0.0, 1.0]])  # pixel coordinates -> index
 SOURCE = HERE / "visp_photometric.cpp"
-BUILD_DIR = Path(tempfile.gettempdir()) / "ibvs-youla-peers"
 RATE_HZ = 25.0
 
 
 def build() -> tuple[Path, str]:
-    """The harness binary (built when absent or stale) and ViSP's version.
+    """The harness binary (built by ``peers/visp.py`` when absent or stale) and ViSP's version.
 
     Raises:
         RuntimeError: pkg-config, g++ or ViSP missing, or the build failed (its output in the message).
     """
-    if shutil.which("pkg-config") is None or shutil.which("g++") is None:
-        raise RuntimeError("pkg-config or g++ not found: apt-get install -y libvisp-dev pkg-config g++")
-    version = subprocess.run(["pkg-config", "--modversion", "visp"], capture_output=True, text=True)
-    if version.returncode != 0:
-        raise RuntimeError(
-            f"pkg-config finds no ViSP: {version.stderr.strip()} (apt-get install -y libvisp-dev)"
-        )
-    digest = hashlib.sha256(SOURCE.read_bytes() + version.stdout.encode()).hexdigest()[:16]
-    binary = BUILD_DIR / f"visp_photometric-{digest}"
-    if not binary.exists():
-        BUILD_DIR.mkdir(parents=True, exist_ok=True)
-        flags = subprocess.run(
-            ["pkg-config", "--cflags", "--libs", "visp"], capture_output=True, text=True, check=True
-        ).stdout.split()
-        command = ["g++", "-O2", "-std=c++17", str(SOURCE), "-o", str(binary), *flags]
-        done = subprocess.run(command, capture_output=True, text=True)
-        if done.returncode != 0:
-            raise RuntimeError(f"building {SOURCE.name} failed:\n{done.stderr[-4000:]}")
-    return binary, version.stdout.strip()
+    version, why = visp.available()
+    if version is None:
+        raise RuntimeError(why)
+    return visp.build(SOURCE), version
 
 
 def _rows(T: np.ndarray) -> list[float]:
@@ -154,15 +136,7 @@ def _visp(
     params += _rows(np.linalg.inv(scenario.T_O_C_target)) + _rows(np.linalg.inv(scenario.T_O_C_start))
     params += [30.0, *MU, frames, 1.0 / RATE_HZ, saturate]
     (work / "params.txt").write_text(" ".join(repr(float(p)) for p in params))
-    done = subprocess.run(
-        [str(binary), str(work / "texture.pgm"), str(work / "target.pgm"), str(work / "params.txt")],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    if done.returncode != 0:
-        raise RuntimeError(f"{binary.name} failed: {done.stderr[-2000:]}")
-    return json.loads(done.stdout)  # type: ignore[no-any-return]
+    return visp.run(binary, work / "texture.pgm", work / "target.pgm", work / "params.txt")
 
 
 def _compare_images(

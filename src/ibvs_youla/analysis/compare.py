@@ -79,6 +79,8 @@ __all__ = [
 CONVERGED_MM = 1.0  # [mm] pose tolerance of "converged"
 CONVERGED_DEG = 0.1  # [deg]
 STRAIGHT_LINE_FLOOR_M = 1e-6  # below it the start-target line counts as a point (pure rotation)
+# simulate()'s refusals that hold for every method (the run's length): compare raises instead of a row
+_COMMON_ARGUMENTS = ("duration",)
 
 
 @dataclass(frozen=True)
@@ -344,7 +346,9 @@ def compare(
 
     Raises:
         InvalidParameterError: an unknown controller name, a name given twice, an empty list,
-            a bad plant or duration, or a free-camera scenario on an arm plant.
+            a bad plant or duration (also one the simulator refuses: shorter than one tick of
+            the plant, or too long for memory: raised at the first method, before any runs),
+            or a free-camera scenario on an arm plant.
     """
     from .. import controllers as registry
     from .._validation import instance, one_of, positive
@@ -394,7 +398,10 @@ def compare(
         except IncompatibleCommandError as err:
             rows.append(MethodRow(label, "incompatible", "incompatible", _one_line(str(err))))
             continue
-        except InvalidParameterError as err:  # the controller refused the task at reset
+        except InvalidParameterError as err:
+            if err.name in _COMMON_ARGUMENTS:  # no method can run with it: the comparison is refused
+                raise
+            # the controller refused the task at reset
             rows.append(MethodRow(label, "rejected", "rejected", _one_line(str(err))))
             continue
         except SimulationDivergedError as err:  # measured on the samples recorded until then

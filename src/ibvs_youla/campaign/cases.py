@@ -44,6 +44,7 @@ import numpy as np
 
 from .._memory import fits_in_memory
 from .._validation import one_of, positive
+from ..catalog import ARM_FAMILIES, FAMILIES
 from ..exceptions import InvalidParameterError
 
 __all__ = [
@@ -61,8 +62,6 @@ __all__ = [
     "generate_cases",
 ]
 
-FAMILIES = ("arm-physical", "arm-virtual", "free-planar", "free-nonplanar", "free-roll")
-ARM_FAMILIES = ("arm-physical", "arm-virtual")
 LIMIT_MARGIN = 0.1  # of each joint's range, kept clear at both ends
 WRIST_MARGIN_DEG = 10.0  # |q5| >= this [deg]
 MIN_JACOBIAN_SIGMA = 0.05  # smallest singular value of the 6x6 LOCAL camera Jacobian (m/rad and 1)

@@ -5,50 +5,46 @@ the ZED 2 stereo camera at 100 Hz and 10 s by default, every registered controll
 of the suite (``gans-rz-180``, ...: the free camera, the normalized monocular camera at 25 Hz and
 30 s, every controller that commands a camera twist). ``--suite gans2003`` runs every task of
 :mod:`ibvs_youla.analysis.suites`. The metrics are those of :mod:`ibvs_youla.analysis.compare`.
+A ``--duration`` or ``--camera-rate`` that the simulator refuses stops the comparison before
+any method runs (exit 2), rather than giving every method a 'rejected' row.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from .. import catalog
 from ..files import write_text
 from .base import UsageError, flag_errors
 
+FLAGS = {
+    "duration": "--duration",
+    "camera_rate_hz": "--camera-rate",
+    "rate_hz": "--camera-rate",
+    "plant": "--plant",
+    "controllers": "--controllers",
+}
 
-def scenario_names() -> tuple[str, ...]:
-    """Names ``--scenario`` takes: the named scenarios, then the suite's tasks."""
-    from .. import scenarios
-    from ..analysis.suites import TASK_NAMES
 
-    return (*scenarios.NAMES, *TASK_NAMES)
-
-
-def controller_list(text: str) -> tuple[str, ...]:
-    """``--controllers a,b,c``: registered names, comma-separated, each once (argparse type)."""
-    from .. import controllers
-
-    names = tuple(n.strip() for n in text.split(","))
-    valid = controllers.names()
-    unknown = [n for n in names if n not in valid]
-    if unknown or len(set(names)) != len(names):
-        what = f"unknown {', '.join(repr(n) for n in unknown)}" if unknown else "a name given twice"
-        raise argparse.ArgumentTypeError(
-            f"received {text!r} ({what}); valid: comma-separated names, each once, from {', '.join(valid)}"
+def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
+    """Check the plant against the scenario or suite; return the function that runs the comparison."""
+    on_free_camera = args.suite is not None or args.scenario in catalog.SUITE_TASKS
+    if on_free_camera and args.plant not in (None, "free-camera"):
+        what = f"--suite {args.suite}" if args.suite is not None else f"the suite's task {args.scenario}"
+        raise UsageError(
+            f"argument --plant: received {args.plant!r}; {what} runs on the free camera: valid values are "
+            "free-camera (the default)"
         )
-    return names
 
+    def run() -> int:
+        with flag_errors(args, FLAGS):
+            return _run_suite(args) if args.suite is not None else _run_scenario(args)
 
-def run(args: argparse.Namespace, extra: list[str]) -> int:
-    """Run the comparison or the suite, write the tables (and figures), print the table; return 0."""
-    with flag_errors(
-        args, {"duration": "--duration", "camera_rate_hz": "--camera-rate", "rate_hz": "--camera-rate"}
-    ):
-        if args.suite is not None:
-            return _run_suite(args)
-        return _run_scenario(args)
+    return run
 
 
 def _run_scenario(args: argparse.Namespace) -> int:
@@ -87,8 +83,6 @@ def _run_suite(args: argparse.Namespace) -> int:
     from ..analysis import suites
     from ..analysis.comparison_figures import save_comparison
 
-    if args.plant not in (None, "free-camera"):
-        raise UsageError(f"compare: --suite runs on the free camera; received --plant {args.plant}")
     duration = args.duration or suites.DURATION_S
     rate = args.camera_rate or suites.RATE_HZ
     report = suites.run_suite(args.controllers, duration=duration, rate_hz=rate, name=args.suite)

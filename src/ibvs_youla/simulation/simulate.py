@@ -31,6 +31,7 @@ import numpy as np
 
 from .._memory import fits_in_memory
 from .._validation import flag, one_of, positive
+from ..catalog import PLANTS
 from ..controllers import Controller, ServoTask, YoulaSettings, make, names, uses_youla_settings
 from ..controllers.base import CommandType
 from ..estimation.stereo_pose import check_marker_geometry
@@ -51,7 +52,6 @@ from .settings import SimulationSettings
 
 __all__ = ["PLANTS", "SENSORS", "Beliefs", "default_camera", "simulate"]
 
-PLANTS = ("dynamic", "kinematic", "free-camera")
 SENSORS = ("ideal", "images")
 
 

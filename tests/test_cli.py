@@ -156,6 +156,10 @@ def test_scenario_outside_the_joint_limits_is_a_config_error(capsys, tmp_path):
 
 
 # ----------------------------------------------------------------------------- simulate
+def refuse_non_finite(constant):
+    raise ValueError(f"not strict JSON: {constant}")
+
+
 def test_simulate_writes_result_figures_and_summary(capsys, tmp_path):
     out = tmp_path / "run"
     code, text, _ = run(
@@ -175,7 +179,8 @@ def test_simulate_writes_result_figures_and_summary(capsys, tmp_path):
             "joint_speeds_torques",
         )
     )
-    summary = json.loads((out / "summary.json").read_text())
+    summary = json.loads((out / "summary.json").read_text(), parse_constant=refuse_non_finite)
+    assert summary["settling_time_s"][0] is None and "never" in summary["null"]  # not settled in 0.05 s
     assert summary["final_feature_error_m"] == pytest.approx(result.final_feature_error.tolist(), abs=0)
     assert summary["outcome"]["kind"] == "converging"
     for label in ("final image error", "final pose error", "2 % settling", "peak joint speed", "outcome"):

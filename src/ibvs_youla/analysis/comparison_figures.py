@@ -8,13 +8,12 @@ errors over time on log scales and, on an arm, the joint speeds against their li
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..files import save_figure, write_text
+from ..files import save_figure, write_json, write_text
 from .compare import CONVERGED_DEG, CONVERGED_MM
 from .metrics import pose_error_series_mm_deg
 from .plots import draw_marker_trajectories
@@ -195,7 +194,7 @@ def save_comparison(
     out.mkdir(parents=True, exist_ok=True)
     paths = {"table.md": out / "table.md", "table.json": out / "table.json"}
     write_text(paths["table.md"], comparison.table_markdown())
-    write_text(paths["table.json"], json.dumps(comparison.to_dict(), indent=1))
+    write_json(paths["table.json"], comparison.to_dict())
     if plots:
         (out / "figures").mkdir(exist_ok=True)
         for name, fig in plot_comparison(comparison).items():

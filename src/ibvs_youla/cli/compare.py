@@ -12,13 +12,12 @@ any method runs (exit 2), rather than giving every method a 'rejected' row.
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from .. import catalog
-from ..files import write_text
+from ..files import write_json, write_text
 from .base import UsageError, flag_errors
 
 FLAGS = {
@@ -97,7 +96,7 @@ def _run_suite(args: argparse.Namespace) -> int:
     )
     table = report.table_markdown()
     write_text(out / "suite.md", caption + table)
-    write_text(out / "suite.json", json.dumps(report.to_dict(), indent=1))
+    write_json(out / "suite.json", report.to_dict())
     for t, comparison in zip(report.tasks, report.comparisons, strict=True):
         save_comparison(comparison, out / t.name, plots=not args.no_plots)
     print(caption + table, end="")

@@ -8,7 +8,6 @@ run has ended: a run refused (a plant the controller cannot drive) leaves nothin
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -17,6 +16,8 @@ from typing import Any
 from .. import catalog
 from .base import PROG, UsageError, flag_errors, load_optional_config, one_line
 
+# what null stands for in summary.json (strict JSON)
+SUMMARY_NULL = "never, for a settling time; not measured or not applicable, for any other value"
 FLAGS = {"duration": "--duration", "controller": "--controller", "plant": "--plant"}
 
 
@@ -99,7 +100,7 @@ def _run(
 ) -> int:
     """Simulate, then write result.npz, summary.json and the figures into ``out``; return the exit code."""
     from ..exceptions import SimulationDivergedError
-    from ..files import write_text
+    from ..files import write_json
     from ..simulation.simulate import simulate
 
     try:
@@ -115,7 +116,7 @@ def _run(
     out.mkdir(parents=True, exist_ok=True)
     path = result.save(out / "result.npz")
     text, summary = _summary(result, arm)
-    write_text(out / "summary.json", json.dumps(summary, indent=1))
+    write_json(out / "summary.json", {"null": SUMMARY_NULL, **summary})
     written = [path.name, "summary.json"]
     if not args.no_plots:
         from ..analysis.plots import save_result_figures

@@ -45,6 +45,7 @@ from .free_camera import FreeCameraPlant
 from .kinematic_arm import KinematicArmPlant
 from .loop import ServoLoop
 from .plant import ArmPlant
+from .progress import announces_compiles
 from .recorder import ResultRecorder
 from .results import SimulationResult, software_versions
 from .sensor import MarkerSensor
@@ -122,6 +123,7 @@ class Beliefs:
         }
 
 
+@announces_compiles
 def simulate(
     scenario: Scenario,
     controller: str | Controller = "ff+fb",
@@ -168,7 +170,8 @@ def simulate(
         disturbances: Pixel noise, dropouts, calibration errors (on top of ``beliefs``), model
             mismatch, latency, actuator limits (:class:`~.disturbances.Disturbances`); each
             wraps a role built here, and ``None`` or all-off wraps nothing.
-        progress: Show a progress bar (tqdm) on stderr.
+        progress: Show a progress bar (tqdm) on stderr, and one line while Numba compiles the
+            kernels the first time (:mod:`~ibvs_youla.simulation.progress`).
 
     Returns:
         The result. ``result.status`` is ``"complete"``; ``"markers_lost"`` when a marker

@@ -294,9 +294,9 @@ def _figures(
         ("joints", plot_joint_comparison, fig_joints),
         ("image", plot_image_comparison, fig_image),
     ):
-        label = f"Figure {number}" if number else name
         what = "joint angles" if kind == "joints" else "image coordinates"
-        fig = plot(fb, ffb, f"{label} ({name}, {mode} outer loop): {what}")
+        label = f"Figure {number} ({name}, {mode} outer loop)" if number else f"{name}, {mode} outer loop"
+        fig = plot(fb, ffb, f"{label}: {what}")
         # a pyplot-free Figure: nothing to close, freed with the reference
         path = save_figure(fig, folder / f"{name}_{mode}_{kind}.png", dpi=110)
         written[f"figure:{name}_{mode}_{kind}"] = path

@@ -65,6 +65,7 @@ def kernel_manager_factory(tmp_path_factory):
     return make
 
 
+@pytest.mark.slow  # 20-90 s each: a kernel, and the notebook's small runs and figures
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
 def test_notebook_runs(path, tmp_path, monkeypatch, kernel_manager_factory):
     monkeypatch.setenv("IBVS_YOULA_SMALL", "1")

@@ -65,13 +65,24 @@ def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
     return lambda: _run(args, definition)
 
 
+def quiet_client_log() -> None:
+    """Silence the Dask client's log (its reconnection attempts' tracebacks): errors are one line here.
+
+    Dask's import sets its loggers' levels from its configuration (``distributed.client``: warning),
+    so it is imported first: set before it, the level would be reset (the parser no longer imports
+    it, so that it stays light).
+    """
+    import distributed  # noqa: F401
+
+    logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
+
+
 def _run(args: argparse.Namespace, definition: Any) -> int:
     """Run the campaign, print what was stored; return 0, or 1 when runs could not be stored."""
     from ..campaign.runner import run_campaign
     from ..campaign.storage import read_rows
 
-    # the client's own log would print the reconnection attempts' tracebacks: errors are one line here
-    logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
+    quiet_client_log()
     try:
         with flag_errors(args, FLAGS):
             summary = run_campaign(

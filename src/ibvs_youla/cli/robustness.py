@@ -20,13 +20,13 @@ families' normalized camera).
 from __future__ import annotations
 
 import argparse
-import logging
 import sys
 from collections.abc import Callable
 from typing import Any
 
 from .base import PROG, UsageError, flag_errors
 from .campaign import FLAGS as CAMPAIGN_FLAGS
+from .campaign import quiet_client_log
 
 FLAGS = {**CAMPAIGN_FLAGS, "values": "--values", "tolerance": "--tolerance", "axis": "--axis"}
 
@@ -76,7 +76,7 @@ def _run(args: argparse.Namespace, study: Any, tolerance: tuple[float, float]) -
     from ..campaign.robustness import run_study
     from ..campaign.robustness_report import write_study_report
 
-    logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
+    quiet_client_log()
 
     def done(value: float, summary: Any) -> None:
         print(

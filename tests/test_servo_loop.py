@@ -290,9 +290,11 @@ def test_cli_runs_the_paper_controller_on_the_kinematic_arm(capsys, tmp_path):
                 "--no-plots",
             ]
         )
-        == 1
-    )  # joint commands cannot drive a bare camera
-    assert "'free-camera' plant accepts camera_twist" in capsys.readouterr().err
+        == 2
+    )  # joint commands cannot drive a bare camera: an argument error, refused before anything is written
+    assert not (tmp_path / "f").exists()
+    err = capsys.readouterr().err
+    assert "'free-camera' plant takes camera twists and ff+fb commands joint_position" in err
 
 
 # --------------------------------------------------------------------------- review: beliefs, objects, checks

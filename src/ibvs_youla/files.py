@@ -24,6 +24,8 @@ file and before it is renamed, so that a test can kill a writer in the middle of
 from __future__ import annotations
 
 import contextlib
+import json
+import math
 import os
 import re
 import time
@@ -42,6 +44,8 @@ __all__ = [
     "is_temporary",
     "remove_temporaries",
     "save_figure",
+    "strict_json",
+    "write_json",
     "write_text",
 ]
 
@@ -89,6 +93,28 @@ def write_text(path: str | os.PathLike[str], text: str) -> Path:
     with atomic_write(path, "w") as stream:
         stream.write(text)
     return Path(path)
+
+
+def strict_json(value: Any) -> Any:
+    """``value`` with every float that is not finite replaced by None, for strict JSON (RFC 8259).
+
+    Python's ``json`` writes ``Infinity`` and ``NaN``, which strict parsers (JavaScript's
+    ``JSON.parse``, jq) reject. Every JSON file the library writes says what its ``null`` means
+    (typically "never": a time that never came, such as a settling time).
+    """
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: strict_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [strict_json(v) for v in value]
+    return value
+
+
+def write_json(path: str | os.PathLike[str], value: Any, **dumps_kwargs: Any) -> Path:
+    """Write ``value`` as strict JSON (:func:`strict_json`, indented) atomically; return the path."""
+    text = json.dumps(strict_json(value), allow_nan=False, **{"indent": 1, **dumps_kwargs})
+    return write_text(path, text)
 
 
 def save_figure(fig: Any, path: str | os.PathLike[str], **savefig_kwargs: Any) -> Path:

@@ -53,6 +53,7 @@ import numpy as np
 from .._memory import fits_in_memory
 from .._reproducible import matmul, norm3
 from .._validation import one_of, positive
+from ..catalog import ARM_FAMILIES, FAMILIES
 from ..exceptions import InvalidParameterError
 
 __all__ = [
@@ -73,8 +74,6 @@ __all__ = [
     "generate_cases",
 ]
 
-FAMILIES = ("arm-physical", "arm-virtual", "free-planar", "free-nonplanar", "free-roll", "free-textured")
-ARM_FAMILIES = ("arm-physical", "arm-virtual")
 SCENE_FAMILIES = ("free-textured",)  # their scenarios carry a scene (a textured plane)
 LIMIT_MARGIN = 0.1  # of each joint's range, kept clear at both ends
 WRIST_MARGIN_DEG = 10.0  # |q5| >= this [deg]

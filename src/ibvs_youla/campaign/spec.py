@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from .._validation import integer, positive, text
+from ..catalog import CAMERA_KINDS
 from ..exceptions import InvalidParameterError
 
 __all__ = [
@@ -44,8 +45,6 @@ __all__ = [
     "specs_for",
     "split_methods",
 ]
-
-CAMERA_KINDS = ("stereo", "mono", "normalized", "pinhole")
 
 
 def _plain(value: Any) -> Any:

@@ -49,6 +49,7 @@ from ..exceptions import (
     SimulationDivergedError,
     UnreachablePoseError,
 )
+from .progress import progress_bar
 from .recorder import ResultRecorder
 from .results import SimulationResult
 
@@ -89,9 +90,7 @@ class ServoLoop:
         """Run to the end or to an early stop; return the result with its status."""
         bar = None
         if progress:
-            from tqdm import tqdm
-
-            bar = tqdm(total=self.n_ticks, unit="tick", desc=label, leave=False)
+            bar = progress_bar(self.n_ticks, label)
         self._reason = ""
         self.phase_seconds: dict[str, float] = {}
         try:

@@ -31,6 +31,7 @@ import numpy as np
 
 from .._memory import fits_in_memory
 from .._validation import flag, one_of, positive
+from ..catalog import PLANTS
 from ..controllers import Controller, ServoTask, YoulaSettings, make, names, uses_youla_settings
 from ..controllers.base import CommandType
 from ..estimation.stereo_pose import check_marker_geometry
@@ -45,6 +46,7 @@ from .free_camera import FreeCameraPlant
 from .kinematic_arm import KinematicArmPlant
 from .loop import ServoLoop
 from .plant import ArmPlant
+from .progress import announces_compiles
 from .recorder import ResultRecorder
 from .results import SimulationResult, software_versions
 from .sensor import MarkerSensor
@@ -52,7 +54,6 @@ from .settings import SimulationSettings
 
 __all__ = ["PLANTS", "SENSORS", "Beliefs", "default_camera", "simulate"]
 
-PLANTS = ("dynamic", "kinematic", "free-camera")
 LOOPS = ("auto", "plug-in")
 SENSORS = ("ideal", "depth", "images")
 
@@ -124,6 +125,7 @@ class Beliefs:
         }
 
 
+@announces_compiles
 def simulate(
     scenario: Scenario,
     controller: str | Controller = "ff+fb",
@@ -173,7 +175,8 @@ def simulate(
         disturbances: Pixel noise, dropouts, calibration errors (on top of ``beliefs``), model
             mismatch, latency, actuator limits (:class:`~.disturbances.Disturbances`); each
             wraps a role built here, and ``None`` or all-off wraps nothing.
-        progress: Show a progress bar (tqdm) on stderr.
+        progress: Show a progress bar (tqdm) on stderr, and one line while Numba compiles the
+            kernels the first time (:mod:`~ibvs_youla.simulation.progress`).
         loop: ``"auto"``: the compiled frame path (:mod:`.compiled_loop`: one compiled call per
             frame, the same result to rounding) when every role is the library's own and one it
             covers (classical IBVS, the ideal sensor with or without depth, the free camera or

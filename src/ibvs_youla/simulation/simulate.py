@@ -32,13 +32,13 @@ import numpy as np
 from .._memory import fits_in_memory
 from .._validation import flag, one_of, positive
 from ..controllers import Controller, ServoTask, YoulaSettings, make, names, uses_youla_settings
-from ..controllers.base import CommandType
 from ..estimation.stereo_pose import check_marker_geometry
-from ..exceptions import InvalidParameterError
+from ..exceptions import IbvsYoulaError, InvalidControllerOutputError, InvalidParameterError
 from ..model.arm import Arm
 from ..model.camera import PinholeCamera, StereoCamera, default_camera
 from ..scenarios import Scenario
 from .actuation import actuation_chain
+from .controller_checks import checked_signals, checked_spec, command_type_of, controller_name, failed
 from .disturbances import Disturbances
 from .free_camera import FreeCameraPlant
 from .kinematic_arm import KinematicArmPlant
@@ -189,8 +189,12 @@ def simulate(
             monocular camera).
         IncompatibleCommandError: the controller's command cannot drive the plant.
         JointLimitError: the scenario's configurations are outside the arm's limits.
-        SimulationDivergedError: a state left its bounds; ``error.partial`` holds the
-            samples recorded until then.
+        ControllerError: a controller object's method raised (``reset``, ``spec``, ``update``,
+            ``command``, ``signals``) or returned what the loop cannot use
+            (:class:`~ibvs_youla.exceptions.InvalidControllerOutputError`); ``error.partial``
+            holds the samples recorded until then (None before the first tick).
+        SimulationDivergedError: a state left its bounds;
+            ``error.partial`` holds the samples recorded until then.
     """
     duration = positive(duration, "duration", unit="s")
     one_of(plant, "plant", PLANTS)
@@ -236,8 +240,9 @@ def simulate(
         model_arm = world.arm if beliefs.arm is None else beliefs.arm
         if settings.model_inertia_scale != 1.0:
             model_arm = model_arm.with_inertia_scale(settings.model_inertia_scale)
+    command_type = command_type_of(ctrl)
     chain = actuation_chain(
-        ctrl.command_type,
+        command_type,
         world.plant,
         arm=model_arm,
         q_start=scenario.q_start,
@@ -263,26 +268,31 @@ def simulate(
         # what the controller believes: its arm at the encoder reading (it cannot see an offset)
         T_O_C_start=model_arm.camera_pose(scenario.q_start) if joints else world.T_O_C_start,
     )
-    ctrl.reset(task)
+    try:
+        ctrl.reset(task)
+    except IbvsYoulaError:  # a typed refusal of the task (e.g. the paper's controller, a monocular camera)
+        raise
+    except Exception as err:  # a user's bug: typed, named, chained
+        raise failed(ctrl, "reset", 0.0, err) from err
     record_every = settings.record_every
-    command_signals = (ctrl.command_type.signal, *(a.output_type.signal for a in chain))
-    declared = ctrl.signals()
-    if not isinstance(declared, dict):
-        raise InvalidParameterError(
-            f"{type(ctrl).__name__}.signals()",
-            type(declared).__name__,
-            "a dict name -> array of a fixed shape",
-        )
+    command_signals = (command_type.signal, *(a.output_type.signal for a in chain))
+    try:
+        declared = ctrl.signals()
+    except Exception as err:
+        raise failed(ctrl, "signals", 0.0, err) from err
+    declared_shapes = {name: np.shape(value) for name, value in checked_signals(ctrl, declared, 0.0).items()}
     n_joints = getattr(world.plant, "n_joints", 0)
     shapes = {
         **{name: (n_joints,) for name in world.plant.signal_names},
         **{name: (6,) if name == "camera_twist" else (n_joints,) for name in command_signals},
-        **{str(name): np.shape(value) for name, value in declared.items()},
+        **declared_shapes,
     }
-    if len(shapes) != len(world.plant.signal_names) + len(command_signals) + len(declared):
-        raise InvalidParameterError(
-            f"{type(ctrl).__name__}.signals()",
-            sorted(declared),
+    if len(shapes) != len(world.plant.signal_names) + len(command_signals) + len(declared_shapes):
+        raise InvalidControllerOutputError(
+            controller_name(ctrl),
+            "signals",
+            0.0,
+            f"the names {list(declared_shapes)}",
             f"names other than the plant's and the commands' "
             f"({', '.join((*world.plant.signal_names, *command_signals))})",
         )
@@ -321,6 +331,8 @@ def simulate(
         record_every,
         recorder,
         command_signals,
+        command_type,
+        declared_shapes,
     )
     return loop.run(progress, scenario.name or "simulate")
 
@@ -375,11 +387,7 @@ def _controller(controller: Any, adaptive: bool, settings: SimulationSettings) -
             type(controller).__name__,
             "a registered name (" + ", ".join(repr(n) for n in names()) + ") or an iy.controllers.Controller",
         )
-    if not hasattr(controller, "command_type"):
-        raise InvalidParameterError(
-            f"{type(controller).__name__}.command_type", None, " or ".join(c.value for c in CommandType)
-        )
-    CommandType.parse(controller.command_type)
+    command_type_of(controller)  # a CommandType or its string value, else an error naming the controller
     if not adaptive:
         raise InvalidParameterError(
             "adaptive", adaptive, "True when the controller is an object (it carries its own options)"
@@ -497,7 +505,7 @@ def _metadata(
     beliefs: Beliefs,
     n_ticks: int,
 ) -> dict[str, Any]:
-    spec = ctrl.spec()
+    spec = checked_spec(ctrl)
     joints = scenario.has_joints
     metadata: dict[str, Any] = {
         "scenario": scenario.name,

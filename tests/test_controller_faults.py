@@ -1,6 +1,6 @@
 """A user-written controller that raises or returns what the loop cannot use: a typed error naming it.
 
-The samples recorded so far are kept in ``error.partial``.
+The samples recorded so far are kept in ``error.partial``; a huge command is a divergence.
 """
 
 from __future__ import annotations
@@ -9,13 +9,15 @@ import numpy as np
 import pytest
 
 import ibvs_youla as iy
+from ibvs_youla.controllers import CommandType
 from ibvs_youla.exceptions import (
     ControllerError,
     InvalidCommandError,
     InvalidParameterError,
+    SimulationDivergedError,
 )
 from ibvs_youla.model.camera import PinholeCamera
-from servo_helpers import MARKERS_4, ConstantTwist
+from servo_helpers import MARKERS_4, ConstantCommand, ConstantTwist
 
 
 class RaisesAt(ConstantTwist):
@@ -191,3 +193,36 @@ def test_a_command_type_given_as_its_string_is_parsed_and_any_other_is_refused_b
         InvalidParameterError, match=r"Unknown\.command_type: received 'twist'; .*'camera_twist'"
     ):
         iy.simulate(free, Unknown(), **run)
+
+
+class HugeCommand(ConstantCommand):
+    """A finite but huge command (1e300 in every entry) of the given type."""
+
+    name = "huge"
+
+    def __init__(self, command_type):
+        super().__init__()
+        self.command_type = command_type
+
+    def reset(self, task):
+        super().reset(task)
+        self.value = np.full(6, 1e300)
+
+
+@pytest.mark.parametrize(
+    ("plant", "command_type"),
+    [
+        ("free-camera", CommandType.CAMERA_TWIST),
+        ("kinematic", CommandType.JOINT_VELOCITY),
+        ("kinematic", CommandType.JOINT_POSITION),
+        ("dynamic", CommandType.JOINT_TORQUE),
+        ("dynamic", CommandType.JOINT_POSITION),
+    ],
+)
+def test_a_huge_finite_command_diverges_on_every_plant_with_the_samples_kept(arm, plant, command_type):
+    tick = 0.01 if plant == "free-camera" else 0.001  # [s] the camera rate, the joint rate
+    with pytest.raises(SimulationDivergedError, match=rf"simulation diverged at t = {tick:g} s") as info:
+        iy.simulate(iy.scenarios.physical(1), HugeCommand(command_type), duration=0.02, plant=plant, arm=arm)
+    partial = info.value.partial
+    assert partial.status == "diverged" and len(partial) == 1  # tick 0, recorded before the step
+    assert np.isfinite(partial.camera_pose).all()

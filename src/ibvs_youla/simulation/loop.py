@@ -22,7 +22,8 @@ each with the samples recorded so far in ``error.partial`` (status ``"diverged"`
 command type's shape (checked cheaply every tick; the first one must also be finite), or signals
 that are not those it declared (:mod:`.controller_checks`) raise
 :class:`~ibvs_youla.exceptions.ControllerError` with ``error.partial`` (status
-``"controller_failed"``); later commands' values are left to the plant's divergence test.
+``"controller_failed"``); later commands' values are left to the plant's divergence test (a
+finite but huge one too: each plant diverges on a state it cannot hold).
 
 The loop times its phases (wall clock, summed over the run) and stores them in
 ``metadata["phase_seconds"]``: ``frame`` (the encoder reading, the true camera pose, the

@@ -193,7 +193,7 @@ def simulate(
             ``command``, ``signals``) or returned what the loop cannot use
             (:class:`~ibvs_youla.exceptions.InvalidControllerOutputError`); ``error.partial``
             holds the samples recorded until then (None before the first tick).
-        SimulationDivergedError: a state left its bounds;
+        SimulationDivergedError: a state left its bounds (a finite but huge command too);
             ``error.partial`` holds the samples recorded until then.
     """
     duration = positive(duration, "duration", unit="s")

@@ -1,6 +1,7 @@
 """A user-written controller that raises or returns what the loop cannot use: a typed error naming it.
 
-The samples recorded so far are kept in ``error.partial``; a huge command is a divergence.
+The samples recorded so far are kept in ``error.partial``; a huge command is a divergence, and
+what a controller is given (frames, readings) is its own copy.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from ibvs_youla.exceptions import (
     SimulationDivergedError,
 )
 from ibvs_youla.model.camera import PinholeCamera
-from servo_helpers import MARKERS_4, ConstantCommand, ConstantTwist
+from servo_helpers import MARKERS_4, ConstantCommand, ConstantJointVelocity, ConstantTwist
 
 
 class RaisesAt(ConstantTwist):
@@ -226,3 +227,40 @@ def test_a_huge_finite_command_diverges_on_every_plant_with_the_samples_kept(arm
     partial = info.value.partial
     assert partial.status == "diverged" and len(partial) == 1  # tick 0, recorded before the step
     assert np.isfinite(partial.camera_pose).all()
+
+
+class Writer(ConstantJointVelocity):
+    """Zero joint velocity; writes 1.0 into every frame and reading it is given."""
+
+    name = "writer"
+
+    def update(self, frame, reading):
+        super().update(frame, reading)
+        for array in (frame.features, frame.visible, reading.q, reading.dq):
+            array[...] = 1.0
+
+    def command(self, reading):
+        reading.q[...] = reading.dq[...] = 1.0
+        return self.value
+
+
+@pytest.mark.parametrize("plant", ["kinematic", "dynamic"])
+def test_what_a_controller_writes_into_its_frames_and_readings_changes_neither_records_nor_plant(arm, plant):
+    writer, run = Writer(), dict(duration=0.02, plant=plant, arm=arm)
+    written = iy.simulate(iy.scenarios.physical(1), writer, **run)
+    assert all(
+        (f.features == 1.0).all() and r.q[0] == 1.0
+        for f, r in zip(writer.frames, writer.readings, strict=True)
+    )
+    reference = iy.simulate(iy.scenarios.physical(1), ConstantJointVelocity(), **run)
+    for name in (
+        "camera_pose",
+        "features",
+        "visible",
+        "frame_features",
+        "frame_visible",
+        "q",
+        "dq",
+        "q_true",
+    ):
+        np.testing.assert_array_equal(getattr(written, name), getattr(reference, name), err_msg=name)

@@ -23,7 +23,9 @@ command type's shape (checked cheaply every tick; the first one must also be fin
 that are not those it declared (:mod:`.controller_checks`) raise
 :class:`~ibvs_youla.exceptions.ControllerError` with ``error.partial`` (status
 ``"controller_failed"``); later commands' values are left to the plant's divergence test (a
-finite but huge one too: each plant diverges on a state it cannot hold).
+finite but huge one too: each plant diverges on a state it cannot hold). The controller is given
+its own copies of each frame's and reading's arrays: what it writes into them changes neither
+the recorded measurements nor the plant.
 
 The loop times its phases (wall clock, summed over the run) and stores them in
 ``metadata["phase_seconds"]``: ``frame`` (the encoder reading, the true camera pose, the
@@ -39,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from ..controllers.base import CommandType, Controller
+from ..controllers.base import CameraFrame, CommandType, Controller, JointReading
 from ..exceptions import (
     ControllerError,
     InvalidCommandError,
@@ -159,6 +161,7 @@ class ServoLoop:
             for k in range(n_ticks + 1):
                 t = k * dt
                 reading = plant.reading()
+                given = reading if reading is None else _own_reading(reading)  # the controller's copy
                 is_frame = k % every == 0
                 if is_frame:
                     T_O_C = plant.camera_pose()
@@ -169,7 +172,7 @@ class ServoLoop:
                         return "markers_lost"
                     tic = clock()
                     try:
-                        controller.update(frame, reading)
+                        controller.update(_own_frame(frame), given)
                     except (
                         PointBehindCameraError,
                         InvalidDisparityError,
@@ -186,7 +189,7 @@ class ServoLoop:
                     record_frame(t, frame.features, frame.visible, elapsed)
                 t_frame = clock()
                 try:
-                    command = controller.command(reading)
+                    command = controller.command(given)
                 except Exception as err:
                     raise failed(controller, "command", t, err) from err
                 if k == 0 or type(command) is not np.ndarray or command.shape != shape:  # cheap, every tick
@@ -223,3 +226,17 @@ class ServoLoop:
         finally:  # also when a run stops early or diverges
             self.phase_seconds = {"frame": frame_s, "control": control_s, "plant": plant_s}
         return "complete"
+
+
+def _own_frame(frame: CameraFrame) -> CameraFrame:
+    """``frame`` with copies of its arrays: the recorder keeps the sensor's, whatever a controller writes."""
+    return CameraFrame(frame.t, np.array(frame.features), np.array(frame.visible))
+
+
+def _own_reading(reading: JointReading) -> JointReading:
+    """``reading`` with copies of its arrays: the plant, the actuation chain and the recorder keep theirs.
+
+    Copies, not read-only views: a read-only array is another type to the compiled kernels that
+    controllers call with it (and a tuple mixing both is not iterable in them).
+    """
+    return JointReading(reading.t, reading.q.copy(), reading.dq.copy())

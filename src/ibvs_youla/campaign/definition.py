@@ -21,9 +21,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
-from .._validation import one_of, positive
+from .._validation import integer, one_of, positive, real
 from ..exceptions import InvalidParameterError
-from .cases import ARM_FAMILIES, FAMILIES
+from .cases import ARM_FAMILIES, FAMILIES, MAX_DIFFICULTY, MAX_SEED
 from .spec import CAMERA_KINDS, ExperimentSpec, parse_method, specs_for
 
 __all__ = ["FAMILY_DEFAULTS", "CampaignDefinition", "methods_for_plant"]
@@ -58,12 +58,13 @@ class CampaignDefinition:
             ``name[key=value,...]`` with its parameters (:func:`~.spec.parse_method`), e.g.
             ``("fb", "fb[adaptive=false]")`` runs the paper's controller with the Jacobian
             re-linearized at every frame and evaluated once.
-        seed: The campaign's seed (an integer >= 0).
+        seed: The campaign's seed (an integer in [0, 2**63 - 1]: it is stored in an int64 column).
         plant: ``"dynamic"``, ``"kinematic"`` or ``"free-camera"``.
         camera: ``{"kind": "stereo" | "mono" | "normalized", ...}``, or just the kind.
-        duration: Simulated time per run [s].
+        duration: Simulated time per run [s], at least one camera frame of the settings.
         settings: Keyword arguments of ``SimulationSettings``.
-        difficulty: The generator's difficulty knob (> 0; 1 is the stated range).
+        difficulty: The generator's difficulty knob (in (0, 100]; 1 is the stated range:
+            :data:`~.cases.MAX_DIFFICULTY`).
         controller_params: Method label -> further keyword parameters of ``controllers.make``.
         disturbances: Fields of ``Disturbances`` for every run (no seed), normalized to those
             that differ from the defaults (``{}``: none).
@@ -98,10 +99,8 @@ class CampaignDefinition:
 
         one_of(self.family, "family", FAMILIES)
         defaults = FAMILY_DEFAULTS[self.family]
-        for name, low in (("cases", 1), ("seed", 0)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise InvalidParameterError(name, value, f"an integer >= {low}")
+        integer(self.cases, "cases", low=1)
+        integer(self.seed, "seed", low=0, high=MAX_SEED)  # a Parquet int64 column holds it
         if not isinstance(self.controllers, (str, list, tuple)):
             raise InvalidParameterError("controllers", self.controllers, "a list of method labels")
         names = (self.controllers,) if isinstance(self.controllers, str) else tuple(self.controllers)
@@ -135,9 +134,18 @@ class CampaignDefinition:
             raise InvalidParameterError(
                 "settings", unknown, f"keywords of SimulationSettings ({', '.join(unknown)} is not one)"
             )
-        SimulationSettings(**settings)  # raises on a bad value
+        rates = SimulationSettings(**settings)  # raises on a bad value
         put("settings", settings)
-        put("difficulty", positive(self.difficulty, "difficulty"))
+        frame_s = (  # one camera frame [s]: the free camera ticks at its frames
+            1.0 / (rates.camera_rate_hz or rates.joint_rate_hz)
+            if self.plant == "free-camera"
+            else rates.dt * rates.camera_every
+        )
+        if self.duration < frame_s * (1.0 - 1e-9):  # type: ignore[operator]
+            raise InvalidParameterError(
+                "duration", self.duration, f"at least one camera frame of the settings, {frame_s:g} s"
+            )
+        put("difficulty", real(self.difficulty, "difficulty", low=0.0, low_open=True, high=MAX_DIFFICULTY))
         if not isinstance(self.controller_params, Mapping) or not all(
             isinstance(v, Mapping) for v in self.controller_params.values()
         ):

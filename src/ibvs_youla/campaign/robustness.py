@@ -222,16 +222,20 @@ def run_study(
         (value, :class:`~.runner.CampaignSummary`) per value.
 
     Raises:
+        InvalidParameterError: a bad argument, or campaigns that cannot run
+            (:func:`~.runner.check_runnable`); nothing written.
         StudyStorageError, CampaignStorageError: the folder holds something else (nothing written).
         SchedulerError: as :func:`~.runner.run_campaign`.
     """
-    from .runner import run_campaign, start_local_cluster
+    from .runner import check_runnable, check_workers, run_campaign, start_local_cluster
 
     if scheduler is not None and workers is not None:
         raise InvalidParameterError("workers", workers, "None with a scheduler (its workers run the tasks)")
+    check_workers(workers)
     run_timeout = positive(run_timeout, "run_timeout", unit="s")
     path = Path(out_dir)
     check_study_folder(path, study)  # before any cluster or file
+    check_runnable(study.campaigns()[0][1])  # every level: the same cases, duration and settings
     cluster = None
     if scheduler is None and workers != 0:
         cluster = start_local_cluster(workers)

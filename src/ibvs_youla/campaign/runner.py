@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .._validation import positive
+from .._validation import integer, positive
 from ..exceptions import IbvsYoulaError, InvalidParameterError
 from .definition import FAMILY_DEFAULTS, CampaignDefinition
 from .spec import ExperimentSpec
@@ -54,7 +54,10 @@ __all__ = [
     "CampaignDefinition",
     "CampaignSummary",
     "SchedulerError",
+    "check_runnable",
+    "check_workers",
     "default_workers",
+    "max_workers",
     "run_campaign",
     "start_local_cluster",
 ]
@@ -83,6 +86,71 @@ def default_workers() -> int:
     """Cores this process may use (its CPU affinity where the system tells it)."""
     affinity = getattr(os, "sched_getaffinity", None)
     return len(affinity(0)) if affinity is not None else max(1, os.cpu_count() or 1)
+
+
+def max_workers() -> int:
+    """The most worker processes a local cluster may start: twice the cores this process may use.
+
+    A run is single-threaded and CPU-bound, so beyond one worker per core the workers only share
+    the cores (twice leaves room for workers that start, wait on the scheduler or write), and each
+    worker is a process of about 380 MB (measured after one arm run): a thousand would need 380 GB.
+    """
+    return 2 * default_workers()
+
+
+def check_workers(workers: Any) -> int | None:
+    """``workers`` if it is None or an integer in [0, :func:`max_workers`].
+
+    Raises:
+        InvalidParameterError: anything else, with the bound and why.
+    """
+    if workers is None:
+        return None
+    high = max_workers()
+    if isinstance(workers, bool) or not isinstance(workers, int) or not 0 <= workers <= high:
+        raise InvalidParameterError(
+            "workers",
+            workers,
+            f"an integer in [0, {high}]: 0 runs in this process, and a local cluster has at most twice "
+            f"the {default_workers()} cores this process may use (one single-threaded process of "
+            "~380 MB per run; more only share the cores)",
+        )
+    return workers
+
+
+def check_runnable(definition: CampaignDefinition) -> list[ExperimentSpec]:
+    """The specs of ``definition``, once its cases are drawn and one run's recording fits in memory.
+
+    What :func:`run_campaign` (and a robustness study, before its folder) checks before a folder
+    is bound: a duration so long that one run's samples (at the least: time, camera pose,
+    features, visibility and the plant's and commands' signals) would not fit in the memory
+    available now is one refusal here, not an error row per run.
+
+    Raises:
+        InvalidParameterError: a case the generator cannot draw (``difficulty``), or a
+            ``duration`` whose recording does not fit in memory.
+    """
+    from .._memory import fits_in_memory
+    from ..simulation.recorder import ResultRecorder
+    from ..simulation.settings import SimulationSettings
+
+    specs = definition.specs()
+    settings = SimulationSettings(**dict(definition.settings or {}))
+    free = definition.plant == "free-camera"
+    dt = 1.0 / (settings.camera_rate_hz or settings.joint_rate_hz) if free else settings.dt
+    ticks = definition.duration / dt  # type: ignore[operator]
+    n_points = len(specs[0].scenario["markers_O"])
+    per_point = 3 if dict(definition.camera)["kind"] == "stereo" else 2  # type: ignore[arg-type]
+    signals = {"camera_twist": (6,)} if free else {name: (6,) for name in ("q", "q_true", "dq", "command")}
+    n_rows, n_frames = ticks / settings.record_every + 2, ticks / (1 if free else settings.camera_every) + 1
+    fits_in_memory(
+        ResultRecorder.estimate_bytes(n_rows, n_frames, per_point * n_points, n_points, signals),
+        "duration",
+        definition.duration,
+        f"a shorter duration or a larger settings record_every (now {settings.record_every}: "
+        f"{n_rows:.3g} samples of one run are kept)",
+    )
+    return specs
 
 
 @dataclass
@@ -142,14 +210,14 @@ def run_campaign(
         definition: The campaign.
         out_dir: Its folder (:mod:`.storage`); created if absent.
         scheduler: Address of an existing Dask scheduler, e.g. ``"tcp://127.0.0.1:8786"``.
-        workers: Worker processes of the local cluster (default: one per core); 0 runs in this
-            process without Dask. Not with ``scheduler``.
+        workers: Worker processes of the local cluster (default: one per core, at most
+            :func:`max_workers`); 0 runs in this process without Dask. Not with ``scheduler``.
         progress: Show a progress bar (runs done, errors, time left) on stderr.
         series: Also store the full time series of each run made by this call in
             ``out_dir/series/<key>.npz`` (the workers return the result with the row; the
             client writes it). Runs already stored are not rerun for their series.
-        batch_rows: Rows per Parquet part.
-        batch_seconds: Longest time a finished row waits before it is written [s].
+        batch_rows: Rows per Parquet part (an integer >= 1).
+        batch_seconds: Longest time a finished row waits before it is written [s] (finite, > 0).
         run_timeout: Longest time a run may take on a Dask worker (finite, > 0) [s]: a run
             running longer is submitted again on another worker, and stored as a
             ``"timeout"`` row if that copy runs longer too; the first copy to return is
@@ -159,6 +227,8 @@ def run_campaign(
         The summary; every stored row reads with ``pandas.read_parquet(out_dir + "/rows")``.
 
     Raises:
+        InvalidParameterError: a bad argument, or a campaign that cannot run
+            (:func:`check_runnable`); nothing written.
         CampaignStorageError: ``out_dir`` holds another campaign or other files, or another
             client runs it (nothing written).
         SchedulerError: the scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S`
@@ -167,15 +237,18 @@ def run_campaign(
     from . import storage
 
     t_start = time.perf_counter()
+    if not isinstance(definition, CampaignDefinition):
+        raise InvalidParameterError("definition", type(definition).__name__, "a CampaignDefinition")
     if scheduler is not None and workers is not None:
         raise InvalidParameterError("workers", workers, "None with a scheduler (its workers run the tasks)")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
-        raise InvalidParameterError("workers", workers, "an integer >= 0")
+    check_workers(workers)
+    integer(batch_rows, "batch_rows", low=1)
+    batch_seconds = positive(batch_seconds, "batch_seconds", unit="s")
     run_timeout = positive(run_timeout, "run_timeout", unit="s")
     path = Path(out_dir)
     record = definition.to_dict()
     storage.check_folder(path, record)  # reads only: refuse before connecting or writing
-    specs = definition.specs()
+    specs = check_runnable(definition)
     done = storage.stored_keys(path) if path.is_dir() else set()
     summary = CampaignSummary(path, len(specs), sum(s.key in done for s in specs))
     if summary.stored_before == len(specs):  # nothing to run: only tidy what a killed client left
@@ -234,10 +307,16 @@ def start_local_cluster(workers: int | None = None) -> Any:
     What :func:`run_campaign` starts when it is given no scheduler; a caller that runs several
     campaigns in a row (a robustness study) starts one and passes its ``scheduler_address``.
     The caller closes it.
+
+    Raises:
+        InvalidParameterError: ``workers`` not None or an integer in [1, :func:`max_workers`].
     """
     import logging
 
     from distributed import LocalCluster
+
+    if check_workers(workers) == 0:
+        raise InvalidParameterError("workers", 0, "None or >= 1 for a cluster (0 runs in this process)")
 
     with _workers_ignore_ctrl_c():
         return LocalCluster(

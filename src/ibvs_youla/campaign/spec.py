@@ -32,6 +32,7 @@ import numpy as np
 
 from .._validation import integer, positive, text
 from ..exceptions import InvalidParameterError
+from .cases import MAX_SEED
 
 __all__ = [
     "CAMERA_KINDS",
@@ -227,8 +228,8 @@ class ExperimentSpec:
         return method_label(self.controller, self.controller_params)
 
     def __post_init__(self) -> None:
-        for name in ("case", "seed"):
-            object.__setattr__(self, name, integer(getattr(self, name), name, low=0))
+        for name in ("case", "seed"):  # stored in int64 columns
+            object.__setattr__(self, name, integer(getattr(self, name), name, low=0, high=MAX_SEED))
         for name in ("family", "controller", "plant"):
             object.__setattr__(self, name, text(getattr(self, name), name, empty=False))
         for name in ("scenario", "controller_params", "camera", "settings", "difficulty", "disturbances"):

@@ -37,6 +37,7 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
+from .._validation import integer, positive
 from ..exceptions import DamagedFileError, FolderLockedError, IbvsYoulaError
 from ..files import LOCK_FILE, atomic_write, folder_lock, is_temporary, remove_temporaries, write_text
 from .metrics import COLUMNS, LATER_COLUMNS
@@ -266,15 +267,18 @@ class RowWriter:
 
     Args:
         out_dir: The campaign folder (``out_dir/rows`` must exist).
-        batch_rows: Flush when this many rows wait.
-        batch_seconds: Flush when the oldest waiting row is this old [s] (checked by the caller
-            through :meth:`seconds_until_due`, and on :meth:`add`).
+        batch_rows: Flush when this many rows wait (an integer >= 1).
+        batch_seconds: Flush when the oldest waiting row is this old [s] (finite, > 0; checked by
+            the caller through :meth:`seconds_until_due`, and on :meth:`add`).
+
+    Raises:
+        InvalidParameterError: ``batch_rows`` or ``batch_seconds`` out of range.
     """
 
     def __init__(self, out_dir: str | os.PathLike[str], batch_rows: int = 20, batch_seconds: float = 10.0):
         self.rows_dir = Path(out_dir) / ROWS_DIR
-        self.batch_rows = int(batch_rows)
-        self.batch_seconds = float(batch_seconds)
+        self.batch_rows = integer(batch_rows, "batch_rows", low=1)
+        self.batch_seconds = positive(batch_seconds, "batch_seconds", unit="s")
         self.written = 0  # rows written by this writer
         self.parts: list[Path] = []
         self._buffer: list[dict[str, Any]] = []

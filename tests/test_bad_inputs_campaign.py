@@ -104,3 +104,30 @@ def test_a_latency_longer_than_the_run_holds_the_first_frame_instead_of_overflow
     assert results[0].status == "complete"
     np.testing.assert_array_equal(results[0].camera_pose, results[1].camera_pose)
     assert np.abs(results[0].camera_pose[-1] - results[0].camera_pose[0]).max() > 1e-3  # it moved
+
+
+# two spellings of one thing: every run stored twice, or two values in one folder
+ONE_THING_TWICE = [
+    case(
+        _campaign(controllers=("ibvs-current", "ibvs-current[]")),
+        P,
+        "controllers",
+        "label-and-empty-brackets",
+    ),
+    case(
+        _campaign(controllers=("pbvs[gain=0.5]", "pbvs"), controller_params={"pbvs": {"gain": 0.5}}),
+        P,
+        "controllers",
+        "label-and-params",
+    ),
+    case(lambda out: RobustnessStudy("noise", (0.1, 0.1000001), FREE), P, "values", "values-printing-alike"),
+    case(
+        lambda out: RobustnessStudy("calibration", (1.0, 1.0000004, 2.0), FREE), P, "values", "values-alike-3"
+    ),
+]
+
+
+@pytest.mark.parametrize(("call", "error", "name"), ONE_THING_TWICE)
+def test_two_spellings_of_one_method_or_one_folder_are_refused(call, error, name, tmp_path):
+    err = check(lambda: call(tmp_path / "out"), error, name)
+    assert "print" in str(err) or "each method once" in str(err)

@@ -24,7 +24,7 @@ from typing import Any
 from .._validation import integer, one_of, positive, real
 from ..exceptions import InvalidParameterError
 from .cases import ARM_FAMILIES, FAMILIES, MAX_DIFFICULTY, MAX_SEED
-from .spec import CAMERA_KINDS, ExperimentSpec, parse_method, specs_for
+from .spec import CAMERA_KINDS, ExperimentSpec, method_label, parse_method, specs_for
 
 __all__ = ["FAMILY_DEFAULTS", "CampaignDefinition", "methods_for_plant"]
 
@@ -54,7 +54,8 @@ class CampaignDefinition:
     Attributes:
         family: A case family (:data:`~.cases.FAMILIES`).
         cases: Number of cases (>= 1).
-        controllers: Method labels, each once: a registered controller name, or
+        controllers: Method labels, each method once (``"fb"`` and ``"fb[]"`` are one): a
+            registered controller name, or
             ``name[key=value,...]`` with its parameters (:func:`~.spec.parse_method`), e.g.
             ``("fb", "fb[adaptive=false]")`` runs the paper's controller with the Jacobian
             re-linearized at every frame and evaluated once.
@@ -157,6 +158,16 @@ class CampaignDefinition:
         if stray:
             raise InvalidParameterError("controller_params", stray, f"names among {', '.join(names)}")
         put("controller_params", params)
+        seen: dict[str, str] = {}  # the method's own label -> the label given
+        for label, (name, own) in zip(names, methods, strict=True):
+            method = method_label(name, {**own, **params.get(label, {})})
+            if method in seen:  # every run would be stored twice, under one key
+                raise InvalidParameterError(
+                    "controllers",
+                    list(names),
+                    f"each method once: {seen[method]!r} and {label!r} are both the method {method!r}",
+                )
+            seen[method] = label
         arm_family = self.family in ARM_FAMILIES
         if arm_family == (self.plant == "free-camera"):
             valid = (

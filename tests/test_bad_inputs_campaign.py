@@ -131,3 +131,47 @@ ONE_THING_TWICE = [
 def test_two_spellings_of_one_method_or_one_folder_are_refused(call, error, name, tmp_path):
     err = check(lambda: call(tmp_path / "out"), error, name)
     assert "print" in str(err) or "each method once" in str(err)
+
+
+# objects of the API given the wrong type, an unknown or a missing field
+WRONG_TYPES = [
+    case(_campaign(camera={"kind": "stereo", "foo": 1}), P, "camera", "campaign-camera-unknown-option"),
+    case(_campaign(camera={"kind": "normalized", "mode": "VGA"}), P, "camera", "campaign-normalized-option"),
+    case(_campaign(disturbances=3), P, "disturbances", "campaign-disturbances-int"),
+    case(_campaign(disturbances=["pixel_noise_px"]), P, "disturbances", "campaign-disturbances-list"),
+    case(_campaign(foo=1), P, "foo", "campaign-unknown-keyword"),
+    case(lambda out: CampaignDefinition.from_dict({"cases": 2}), P, "family", "campaign-from-dict-missing"),
+    case(lambda out: CampaignDefinition.from_dict([1]), P, "data", "campaign-from-dict-list"),
+    case(lambda out: RobustnessStudy("noise", 3, FREE), P, "values", "study-values-int"),
+    case(lambda out: RobustnessStudy("noise", "0.1", FREE), P, "values", "study-values-str"),
+    case(lambda out: RobustnessStudy("noise", None, 3), P, "campaign", "study-campaign-int"),
+    case(lambda out: RobustnessStudy("noise", None, {**FREE, "foo": 1}), P, "foo", "study-campaign-unknown"),
+    case(lambda out: RobustnessStudy("noise", None, {"cases": 2}), P, "family", "study-campaign-missing"),
+    case(lambda out: RobustnessStudy(["noise"]), P, "axis", "study-axis-list"),
+    case(lambda out: RobustnessStudy.from_dict({"axis": "noise"}), P, "campaign", "study-from-dict-missing"),
+    case(lambda out: iy.Disturbances(foo=1), P, "foo", "disturbances-unknown-keyword"),
+    case(
+        lambda out: iy.Disturbances(0.1, False, 0.0, *range(30)), P, "positional", "disturbances-positional"
+    ),
+    case(lambda out: iy.Disturbances.from_dict(["pixel_noise_px"]), P, "disturbances", "from-dict-list"),
+    case(lambda out: ExperimentSpec.from_json("{"), P, "text", "spec-json-malformed"),
+    case(lambda out: ExperimentSpec.from_json("[1]"), P, "text", "spec-json-array"),
+    case(lambda out: ExperimentSpec.from_json('{"family": "x"}'), P, "case", "spec-json-missing"),
+    case(lambda out: ExperimentSpec(), P, "family", "spec-nothing"),
+]
+
+
+@pytest.mark.parametrize(("call", "error", "name"), WRONG_TYPES)
+def test_api_objects_refuse_wrong_types_and_fields_by_name(call, error, name, tmp_path):
+    check(lambda: call(tmp_path / "out"), error, name)
+
+
+@pytest.mark.parametrize("received", ["not json", "{}", '{"family": "free-planar"}', "[1, 2]", None, 3.5])
+def test_run_spec_returns_an_error_row_whatever_it_is_given(received):
+    from ibvs_youla.campaign.metrics import COLUMNS
+    from ibvs_youla.campaign.run import run_spec
+
+    row = run_spec(received)
+    assert set(row) == set(COLUMNS) and (row["outcome"], row["status"]) == ("error", "error")
+    assert row["error"].startswith("InvalidParameterError: ") and len(row["key"]) == 20
+    assert row["spec"] == str(received)

@@ -21,10 +21,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
-from .._validation import integer, one_of, positive, real
+from .._validation import integer, keywords_checked, one_of, positive, real
 from ..exceptions import InvalidParameterError
 from .cases import ARM_FAMILIES, FAMILIES, MAX_DIFFICULTY, MAX_SEED
-from .spec import CAMERA_KINDS, ExperimentSpec, method_label, parse_method, specs_for
+from .spec import CAMERA_KINDS, ExperimentSpec, camera_from_spec, method_label, parse_method, specs_for
 
 __all__ = ["FAMILY_DEFAULTS", "CampaignDefinition", "methods_for_plant"]
 
@@ -45,6 +45,7 @@ FAMILY_DEFAULTS: dict[str, dict[str, Any]] = {
 }
 
 
+@keywords_checked
 @dataclass(frozen=True)
 class CampaignDefinition:
     """A campaign as data: ``cases`` cases of ``family`` from ``seed``, each run by every controller.
@@ -123,6 +124,7 @@ class CampaignDefinition:
             raise InvalidParameterError("camera", camera, "a camera kind or {'kind': ..., zed2 keywords}")
         camera = {"kind": camera} if isinstance(camera, str) else dict(camera)
         one_of(camera.get("kind"), "camera.kind", CAMERA_KINDS)
+        camera_from_spec(camera)  # its options: zed2's keywords, with values it takes
         put("camera", camera)
         duration = defaults["duration"] if self.duration is None else self.duration
         put("duration", positive(duration, "duration", unit="s"))
@@ -189,8 +191,13 @@ class CampaignDefinition:
 
     def _checked_disturbances(self) -> dict[str, Any]:
         from ..simulation.disturbances import Disturbances
-        from .spec import camera_from_spec
 
+        if self.disturbances is not None and not isinstance(self.disturbances, Mapping):
+            raise InvalidParameterError(
+                "disturbances",
+                self.disturbances,
+                "a mapping of Disturbances fields (no seed), or None",
+            )
         given = dict(self.disturbances or {})
         if "seed" in given:
             raise InvalidParameterError(
@@ -223,9 +230,17 @@ class CampaignDefinition:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> CampaignDefinition:
-        """The definition of :meth:`to_dict` (a ``format`` key is ignored)."""
+        """The definition of :meth:`to_dict` (a ``format`` key is ignored).
+
+        Raises:
+            InvalidParameterError: not a mapping, unknown or missing fields, or values the
+                definition refuses.
+        """
+        if not isinstance(data, Mapping):
+            raise InvalidParameterError("data", type(data).__name__, "a mapping of CampaignDefinition fields")
         fields_ = {k: v for k, v in data.items() if k != "format"}
-        fields_["controllers"] = tuple(fields_.get("controllers", ()))
+        if isinstance(fields_.get("controllers"), list):
+            fields_["controllers"] = tuple(fields_["controllers"])
         return cls(**fields_)
 
     def specs(self) -> list[ExperimentSpec]:

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import integer, positive, text
+from .._validation import integer, keywords_checked, positive, text
 from ..exceptions import InvalidParameterError
 from .cases import MAX_SEED
 
@@ -47,6 +47,12 @@ __all__ = [
 ]
 
 CAMERA_KINDS = ("stereo", "mono", "normalized")
+
+
+def _cut(value: Any, limit: int = 200) -> str:
+    """``value`` as text, cut to ``limit`` characters (a message shows what was received, not all of it)."""
+    out = value if isinstance(value, str) else repr(value)
+    return out if len(out) <= limit else out[: limit - 3] + "..."
 
 
 def _plain(value: Any) -> Any:
@@ -163,18 +169,36 @@ def camera_from_spec(camera: Mapping[str, Any]) -> Any:
     """The camera of a spec: ``{"kind": "stereo" | "mono" | "normalized", ...}`` (zed2 keywords).
 
     Stereo and mono default to the paper's ZED 2 optics in the VGA mode (the simulator's default).
+
+    Raises:
+        InvalidParameterError: not a mapping, an unknown kind, options for the normalized camera
+            (it has none), or options that are not keywords of ``zed2`` (``preset``, ``mode``,
+            ``frame_rate``) or that it refuses.
     """
     from ..model.camera import PinholeCamera, StereoCamera
 
+    if not isinstance(camera, Mapping):
+        raise InvalidParameterError("camera", camera, "a mapping {'kind': ..., zed2 keywords}")
     kind = camera.get("kind")
-    if kind == "normalized":
-        return PinholeCamera.normalized()
     options = {k: v for k, v in camera.items() if k != "kind"}
-    if kind == "stereo":
-        return StereoCamera.zed2(**{"mode": "VGA", **options})
-    if kind == "mono":
-        return PinholeCamera.zed2(**{"mode": "VGA", **options})
-    raise InvalidParameterError("camera.kind", kind, " or ".join(repr(k) for k in CAMERA_KINDS))
+    if kind == "normalized":
+        if options:
+            raise InvalidParameterError(
+                "camera", dict(camera), "{'kind': 'normalized'} alone (it has no options)"
+            )
+        return PinholeCamera.normalized()
+    if kind not in ("stereo", "mono"):
+        raise InvalidParameterError("camera.kind", kind, " or ".join(repr(k) for k in CAMERA_KINDS))
+    unknown = sorted(set(options) - set(_ZED2_KEYWORDS))
+    if unknown:
+        raise InvalidParameterError(
+            "camera", unknown, f"keywords of zed2 besides 'kind': {', '.join(_ZED2_KEYWORDS)}"
+        )
+    make = StereoCamera.zed2 if kind == "stereo" else PinholeCamera.zed2
+    return make(**{"mode": "VGA", **options})
+
+
+_ZED2_KEYWORDS = ("preset", "mode", "frame_rate")  # StereoCamera.zed2 and PinholeCamera.zed2
 
 
 def disturbance_seed(seed: int, case: int) -> int:
@@ -186,6 +210,7 @@ def disturbance_seed(seed: int, case: int) -> int:
     return int(np.random.SeedSequence(seed, spawn_key=(case, 1)).generate_state(1)[0])
 
 
+@keywords_checked
 @dataclass(frozen=True, eq=True)
 class ExperimentSpec:
     """One (case, method) run of a campaign, as plain data (module docstring).
@@ -260,8 +285,23 @@ class ExperimentSpec:
 
     @classmethod
     def from_json(cls, text: str) -> ExperimentSpec:
-        """The spec of :meth:`to_json`."""
-        return cls(**json.loads(text))
+        """The spec of :meth:`to_json`.
+
+        Raises:
+            InvalidParameterError: not a string of JSON, not a JSON object, or an object that is
+                not a spec (unknown or missing fields, or values the spec refuses).
+        """
+        if not isinstance(text, (str, bytes)):
+            raise InvalidParameterError("text", type(text).__name__, "the JSON of an ExperimentSpec")
+        try:
+            data = json.loads(text)
+        except ValueError as err:
+            raise InvalidParameterError(
+                "text", _cut(text), f"the JSON of an ExperimentSpec ({err})"
+            ) from None
+        if not isinstance(data, dict):
+            raise InvalidParameterError("text", _cut(text), "the JSON object of an ExperimentSpec")
+        return cls(**data)
 
     @property
     def key(self) -> str:

@@ -40,7 +40,7 @@ from typing import Any
 from .._validation import integer, positive
 from ..exceptions import DamagedFileError, FolderLockedError, IbvsYoulaError
 from ..files import LOCK_FILE, atomic_write, folder_lock, is_temporary, remove_temporaries, write_text
-from .metrics import COLUMNS, LATER_COLUMNS
+from .metrics import COLUMNS, LATER_COLUMNS, OUTCOMES
 
 __all__ = [
     "DEFINITION_FILE",
@@ -186,7 +186,8 @@ def _read_part(part: Path, columns: list[str] | None = None) -> Any:
     """One part (its ``columns``, default all) as a pyarrow table of the rows' schema.
 
     Raises:
-        DamagedFileError: unreadable, a page CRC that does not match, or a column missing.
+        DamagedFileError: unreadable, a page CRC that does not match, a column missing, or an
+            ``outcome`` or ``status`` that no run has.
     """
     import pyarrow.parquet as pq
 
@@ -206,6 +207,15 @@ def _read_part(part: Path, columns: list[str] | None = None) -> Any:
     if missing:
         listed = ", ".join(missing[:4]) + (", ..." if len(missing) > 4 else "")
         raise DamagedFileError(part, f"not rows of a campaign: no column {listed}", expected)
+    from ..simulation.results import STATUSES
+
+    for column, valid in (("outcome", OUTCOMES), ("status", (*STATUSES, "error", "timeout"))):
+        if column in table.column_names:
+            unknown = sorted(set(table.column(column).to_pylist()) - set(valid), key=str)
+            if unknown:
+                raise DamagedFileError(
+                    part, f"column {column!r} holds {unknown}, not one of {', '.join(valid)}", expected
+                )
     return table
 
 
@@ -217,7 +227,7 @@ def stored_keys(out_dir: str | os.PathLike[str]) -> set[str]:
     keys: set[str] = set()
     for part in _parts(out_dir):
         with contextlib.suppress(DamagedFileError):
-            keys.update(_read_part(part, ["key"]).column("key").to_pylist())
+            keys.update(_read_part(part, ["key", "outcome", "status"]).column("key").to_pylist())
     return keys
 
 

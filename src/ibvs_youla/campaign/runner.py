@@ -68,6 +68,7 @@ TASKS_PER_THREAD = 4  # tasks in flight per worker thread (at least MIN_WINDOW i
 MIN_WINDOW = 32
 RUN_TIMEOUT_S = 600.0  # default longest run on a worker [s]: a normal run takes seconds
 LATE_S = 60.0  # a run running longer than this (or half the run timeout) shows as late [s]
+QUEUED = "the scheduler's queue (no healthy worker free)"  # where a run no worker took waits
 
 
 class SchedulerError(IbvsYoulaError):
@@ -219,9 +220,11 @@ def run_campaign(
         batch_rows: Rows per Parquet part (an integer >= 1).
         batch_seconds: Longest time a finished row waits before it is written [s] (finite, > 0).
         run_timeout: Longest time a run may take on a Dask worker (finite, > 0) [s]: a run
-            running longer is submitted again on another worker, and stored as a
-            ``"timeout"`` row if that copy runs longer too; the first copy to return is
-            stored, a later one dropped. Runs in this process (``workers=0``) are not timed.
+            running longer is submitted again, first in line, on another worker (the late one is
+            avoided until its run returns), and stored as a ``"timeout"`` row if that copy runs
+            longer too; the first copy to return is stored, a later one dropped. It counts from
+            when a worker starts the run: leave room for a worker's start-up (imports, compiled
+            code) on its first run. Runs in this process (``workers=0``) are not timed.
 
     Returns:
         The summary; every stored row reads with ``pandas.read_parquet(out_dir + "/rows")``.
@@ -505,9 +508,13 @@ def _collect(
     clock = _RunClock(run_timeout)
     window = _window(client)
 
-    def submit(specs: list[ExperimentSpec], retries: int) -> None:
+    def submit(specs: list[ExperimentSpec], retries: int, again: bool = False) -> None:
+        """Submit ``specs``; ``again``: copies of runs that did not return, run next wherever they land."""
         extra = clock.placement(client)
-        futures = client.map(function, [s.to_json() for s in specs], pure=False, retries=retries, **extra)
+        futures = client.map(
+            function, [s.to_json() for s in specs], pure=False, retries=retries, priority=int(again), **extra
+        )
+        clock.submitted(futures, again)
         in_flight.update(zip(futures, specs, strict=True))
 
     def keep(spec: ExperimentSpec, row: dict[str, Any], result: Any) -> None:
@@ -515,9 +522,10 @@ def _collect(
             return
         stored.add(spec.key)
         _store(row, result, writer, summary, bar, path)
-        for other in [f for f, s in (*in_flight.items(), *stale.items()) if s.key == spec.key]:
-            in_flight.pop(other, None)
-            stale.pop(other, None)
+        # copies still running elsewhere are released; those on a hung worker are kept until the end:
+        # released, they would free its slots, and the scheduler would send it new runs to hold
+        for other in [f for f, s in in_flight.items() if s.key == spec.key]:
+            in_flight.pop(other)
             other.release()
 
     while queue or in_flight or suspects:
@@ -539,6 +547,7 @@ def _collect(
         for future in finished:
             if future.status in ("lost", "pending"):  # its result died with a worker: recomputed
                 continue
+            clock.returned(future.key)
             spec = in_flight.pop(future, None) or stale.pop(future, None)
             if spec is None:  # released above, as a copy of a stored run
                 continue
@@ -564,22 +573,24 @@ def _collect(
         for future, worker, age in clock.overdue(client, in_flight):
             spec = in_flight.pop(future)
             stale[future] = spec
-            if clock.attempts[spec.key] >= 2 or not clock.healthy(client):
+            if clock.attempts[spec.key] >= 2:
                 message = f"timed out: no result after {age:.0f} s on {clock.tried(spec.key)}"
                 _LOG.warning("ibvs-youla: run %s %s; stored as a timeout", spec.key, message)
                 keep(spec, timeout_row(spec, message, age), None)
-            else:
+            else:  # elsewhere if another worker is healthy; the first copy back is stored
                 _LOG.warning(
-                    "ibvs-youla: run %s took more than %g s on %s; running it again on another worker",
+                    "ibvs-youla: run %s took more than %g s on %s; running it again%s",
                     spec.key,
                     run_timeout,
                     worker,
+                    " on another worker" if clock.healthy(client) else "",
                 )
-                submit([spec], 2)
-        for future, spec in clock.stuck_behind(client, in_flight):  # waiting on a hung worker: move it
-            in_flight.pop(future)
-            stale[future] = spec
-            submit([spec], 2)
+                submit([spec], 2, again=True)
+        if clock.healthy(client):  # runs waiting behind a hung worker's run: move them (else they bounce)
+            for future, spec in clock.stuck_behind(client, in_flight):
+                in_flight.pop(future)
+                stale[future] = spec
+                submit([spec], 2, again=True)
         late = clock.late(in_flight)
         bar.set_postfix(errors=summary.errors, refresh=False)
         if late:
@@ -596,9 +607,14 @@ def _collect(
 class _RunClock:
     """How long each run has been running on its worker, from what the scheduler says it processes.
 
-    A worker of ``k`` threads runs the ``k`` runs it received first; a run's clock starts when it
-    is one of those (a run queued behind others on a worker is not timed). A worker with a run
-    past the timeout is hung: later runs avoid it, and the runs queued on it move elsewhere.
+    A worker of ``k`` threads runs, of the runs it holds, the ``k`` submitted first (copies of
+    runs that did not return, submitted with a higher priority, before the others; a copy left
+    on a hung worker still holds its slot); a run's clock starts when it is one of those (a run
+    queued behind others on a worker is not timed). A worker with a run past the timeout is
+    hung: later runs avoid it while another worker is healthy, and the runs queued on it move
+    elsewhere; it is healthy again once that run returns. While no worker is healthy, the runs
+    queued behind a hung run are timed from when it hung, and those no worker has taken from
+    when that was first seen (nothing else would end them).
     """
 
     def __init__(self, run_timeout: float) -> None:
@@ -607,6 +623,9 @@ class _RunClock:
         self.poll_s = min(2.0, max(0.05, run_timeout / 10.0))
         self.hung: set[str] = set()
         self.attempts: Counter[str] = Counter()
+        self._index: dict[Any, tuple[bool, int]] = {}  # future key -> (not a copy again, submission)
+        self._overdue: dict[str, set[Any]] = {}  # hung worker -> the future keys that made it so
+        self._hung_since: dict[str, float] = {}
         self._workers: dict[str, list[str]] = {}  # spec key -> workers it timed out on
         self._seen: dict[Any, tuple[str, float]] = {}  # future key -> (worker, first seen there)
         self._started: dict[Any, float] = {}  # future key -> when it became one of the worker's first k
@@ -623,18 +642,38 @@ class _RunClock:
         except Exception:  # the scheduler is gone, or a client without it: nothing timed
             processing = {}
         threads = _nthreads(client)
-        order = {f.key: n for n, f in enumerate(in_flight)}
+        any_healthy = any(w not in self.hung for w in threads)
         seen, started = {}, {}
         for worker, keys in processing.items():
-            mine = [k for k in keys if k in order]
-            for key in mine:
+            held = sorted((k for k in keys if k in self._index), key=self._index.__getitem__)  # run order
+            k = max(1, threads.get(worker, 1))
+            for n, key in enumerate(held):
                 old = self._seen.get(key)
-                seen[key] = old if old is not None and old[0] == worker else (worker, now)
-            mine.sort(key=lambda k: (seen[k][1], order[k]))
-            for key in mine[: max(1, threads.get(worker, 1))]:
-                same = self._seen.get(key, (None,))[0] == worker
-                started[key] = self._started.get(key, now) if same else now
+                same = old is not None and old[0] == worker
+                seen[key] = old if same else (worker, now)  # type: ignore[assignment]
+                if n < k:
+                    started[key] = self._started.get(key, now) if same else now
+                elif worker in self.hung and not any_healthy:
+                    started[key] = self._started.get(key, self._hung_since[worker]) if same else now
+        if not any_healthy and self.hung:  # runs no worker is free to take: timed in the scheduler's queue
+            for future in in_flight:
+                if future.key not in seen:
+                    seen[future.key] = self._seen.get(future.key, (QUEUED, now))
+                    started[future.key] = self._started.get(future.key, now)
         self._seen, self._started, self._processing = seen, started, processing
+
+    def submitted(self, futures: list[Any], again: bool) -> None:
+        """Note new futures, in submission order; ``again``: copies submitted with a higher priority."""
+        for future in futures:
+            self._index[future.key] = (not again, len(self._index))
+
+    def returned(self, key: Any) -> None:
+        """The run of future ``key`` returned: a worker it made hung works again."""
+        for worker, keys in list(self._overdue.items()):
+            if key in keys:
+                del self._overdue[worker]
+                self._hung_since.pop(worker, None)
+                self.hung.discard(worker)
 
     def overdue(self, client: Any, in_flight: dict[Any, ExperimentSpec]) -> list[tuple[Any, str, float]]:
         """The runs past the timeout (each counted once: the caller moves them out of ``in_flight``)."""
@@ -644,7 +683,10 @@ class _RunClock:
             started = self._started.get(future.key)
             if started is not None and now - started > self.run_timeout:
                 worker = self._seen[future.key][0]
-                self.hung.add(worker)
+                if worker != QUEUED:
+                    self.hung.add(worker)
+                    self._hung_since.setdefault(worker, now)
+                    self._overdue.setdefault(worker, set()).add(future.key)
                 self.attempts[spec.key] += 1
                 self._workers.setdefault(spec.key, []).append(worker)
                 found.append((future, worker, now - started))
@@ -667,10 +709,9 @@ class _RunClock:
         return " then ".join(self._workers.get(key, [])) or "its workers"
 
     def placement(self, client: Any) -> dict[str, Any]:
-        """``client.map`` keywords that keep new runs off hung workers (none while no worker hangs)."""
-        if not self.hung:
-            return {}
-        return {"workers": self.healthy(client) or None, "allow_other_workers": False}
+        """``client.map`` keywords that keep new runs off hung workers (none while none or all hang)."""
+        healthy = self.healthy(client) if self.hung else []
+        return {"workers": healthy, "allow_other_workers": False} if healthy else {}
 
 
 def _window(client: Any) -> int:

@@ -17,6 +17,7 @@ import threading
 from types import SimpleNamespace
 
 import distributed
+import pytest
 
 from ibvs_youla.campaign import runner
 from ibvs_youla.campaign.definition import CampaignDefinition
@@ -45,9 +46,10 @@ class FakeFuture:
 class FakeCluster:
     """Two-slot workers in simulated time (module docstring); ``durations``: worker -> seconds per run."""
 
-    def __init__(self, durations, slow_first=None):
+    def __init__(self, durations, slow_first=None, hangs=()):
         self.durations = durations  # None: stopped
         self.slow_first = slow_first or {}  # worker -> duration of its first run [s]
+        self.hangs = set(hangs)  # spec keys whose runs never return, on any worker
         self.now = 0.0
         self.held = {w: [] for w in durations}  # worker -> futures assigned, in order
         self.queue: list[FakeFuture] = []
@@ -99,7 +101,7 @@ class FakeCluster:
 
     def _duration(self, future):
         worker = future.worker
-        if self.durations[worker] is None:
+        if self.durations[worker] is None or future.spec.key in self.hangs:
             return None
         return (
             self.slow_first.get(worker, self.durations[worker])
@@ -197,15 +199,24 @@ def test_the_first_copy_back_is_stored_and_a_late_one_dropped(monkeypatch):
     assert cluster.futures["run-0"].status == "finished" and cluster.now >= 18.0  # returned late: dropped
 
 
-def test_a_run_that_times_out_on_two_workers_is_a_timeout_row_naming_them(monkeypatch):
-    cluster = FakeCluster({"A": None, "B": None})  # both stopped: nothing ever returns
+def test_a_run_that_hangs_every_worker_it_meets_is_a_timeout_row_naming_them(monkeypatch):
+    """A run stuck in a solver hangs A, then its copy hangs B: stored as a timeout; C runs the rest."""
+    cluster = FakeCluster({"A": 1.0, "B": 1.0, "C": 1.0}, hangs={SPECS[0].key})
     rows, _ = _campaign(monkeypatch, cluster)
     assert sorted(r["key"] for r in rows) == sorted(s.key for s in SPECS)
-    assert {r["outcome"] for r in rows} == {"timeout"}
-    messages = sorted(r["error"] for r in rows)
-    assert all(re.match(r"timed out: no result after 1\d s on ", m) for m in messages), messages
-    assert any(" then " in m for m in messages)  # the workers it was tried on, in order
-    assert cluster.now < 10 * TIMEOUT_S * len(SPECS)  # it ends
+    (timeout,) = [r for r in rows if r["outcome"] == "timeout"]
+    assert timeout["key"] == SPECS[0].key and {r["outcome"] for r in rows if r is not timeout} == {"reached"}
+    assert re.fullmatch(r"timed out: no result after 1\d s on A then B", timeout["error"]), timeout["error"]
+
+
+def test_a_campaign_whose_every_worker_hangs_stops_with_one_line_after_a_timeout_more(monkeypatch):
+    cluster = FakeCluster({"A": None, "B": None})  # both stopped: nothing ever returns
+    with pytest.raises(
+        runner.SchedulerError, match="every worker has a run past the 10 s run timeout"
+    ) as info:
+        _campaign(monkeypatch, cluster)
+    assert "(A, B) and none returned for 1" in str(info.value) and "the 0 rows returned" in str(info.value)
+    assert 2 * TIMEOUT_S < cluster.now < 3 * TIMEOUT_S + 5.0  # stopped once hung a timeout more
 
 
 def test_a_worker_slow_once_is_healthy_again_and_retries_finish_there(monkeypatch):

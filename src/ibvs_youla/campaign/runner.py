@@ -68,7 +68,6 @@ TASKS_PER_THREAD = 4  # tasks in flight per worker thread (at least MIN_WINDOW i
 MIN_WINDOW = 32
 RUN_TIMEOUT_S = 600.0  # default longest run on a worker [s]: a normal run takes seconds
 LATE_S = 60.0  # a run running longer than this (or half the run timeout) shows as late [s]
-QUEUED = "the scheduler's queue (no healthy worker free)"  # where a run no worker took waits
 
 
 class SchedulerError(IbvsYoulaError):
@@ -235,7 +234,8 @@ def run_campaign(
         CampaignStorageError: ``out_dir`` holds another campaign or other files, or another
             client runs it (nothing written).
         SchedulerError: the scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S`
-            (nothing written), or the cluster lost runs (what was returned is stored).
+            (nothing written), the cluster lost runs, or every worker has been hung (a run past
+            the run timeout) for a run timeout more (what was returned is stored).
     """
     from . import storage
 
@@ -314,8 +314,6 @@ def start_local_cluster(workers: int | None = None) -> Any:
     Raises:
         InvalidParameterError: ``workers`` not None or an integer in [1, :func:`max_workers`].
     """
-    import logging
-
     from distributed import LocalCluster
 
     if check_workers(workers) == 0:
@@ -591,6 +589,14 @@ def _collect(
                 in_flight.pop(future)
                 stale[future] = spec
                 submit([spec], 2, again=True)
+        elif clock.stalled_s() > run_timeout:  # no worker can take a run: the campaign cannot go on
+            hung = ", ".join(sorted(clock.hung))
+            raise SchedulerError(
+                str(client.scheduler.address),
+                f"every worker has a run past the {run_timeout:g} s run timeout ({hung}) and none returned "
+                f"for {clock.stalled_s():.0f} s; the {writer.written + len(writer)} rows returned by this "
+                "call are stored: rerun the same command when the workers work",
+            )
         late = clock.late(in_flight)
         bar.set_postfix(errors=summary.errors, refresh=False)
         if late:
@@ -612,9 +618,7 @@ class _RunClock:
     on a hung worker still holds its slot); a run's clock starts when it is one of those (a run
     queued behind others on a worker is not timed). A worker with a run past the timeout is
     hung: later runs avoid it while another worker is healthy, and the runs queued on it move
-    elsewhere; it is healthy again once that run returns. While no worker is healthy, the runs
-    queued behind a hung run are timed from when it hung, and those no worker has taken from
-    when that was first seen (nothing else would end them).
+    elsewhere; it is healthy again once that run returns.
     """
 
     def __init__(self, run_timeout: float) -> None:
@@ -625,7 +629,7 @@ class _RunClock:
         self.attempts: Counter[str] = Counter()
         self._index: dict[Any, tuple[bool, int]] = {}  # future key -> (not a copy again, submission)
         self._overdue: dict[str, set[Any]] = {}  # hung worker -> the future keys that made it so
-        self._hung_since: dict[str, float] = {}
+        self._none_healthy_since: float | None = None  # since when every worker has been hung
         self._workers: dict[str, list[str]] = {}  # spec key -> workers it timed out on
         self._seen: dict[Any, tuple[str, float]] = {}  # future key -> (worker, first seen there)
         self._started: dict[Any, float] = {}  # future key -> when it became one of the worker's first k
@@ -642,7 +646,10 @@ class _RunClock:
         except Exception:  # the scheduler is gone, or a client without it: nothing timed
             processing = {}
         threads = _nthreads(client)
-        any_healthy = any(w not in self.hung for w in threads)
+        if threads and not any(w not in self.hung for w in threads):
+            self._none_healthy_since = self._none_healthy_since or now
+        else:
+            self._none_healthy_since = None
         seen, started = {}, {}
         for worker, keys in processing.items():
             held = sorted((k for k in keys if k in self._index), key=self._index.__getitem__)  # run order
@@ -653,13 +660,6 @@ class _RunClock:
                 seen[key] = old if same else (worker, now)  # type: ignore[assignment]
                 if n < k:
                     started[key] = self._started.get(key, now) if same else now
-                elif worker in self.hung and not any_healthy:
-                    started[key] = self._started.get(key, self._hung_since[worker]) if same else now
-        if not any_healthy and self.hung:  # runs no worker is free to take: timed in the scheduler's queue
-            for future in in_flight:
-                if future.key not in seen:
-                    seen[future.key] = self._seen.get(future.key, (QUEUED, now))
-                    started[future.key] = self._started.get(future.key, now)
         self._seen, self._started, self._processing = seen, started, processing
 
     def submitted(self, futures: list[Any], again: bool) -> None:
@@ -667,12 +667,16 @@ class _RunClock:
         for future in futures:
             self._index[future.key] = (not again, len(self._index))
 
+    def stalled_s(self) -> float:
+        """How long every worker has been hung [s] (0 while one is healthy, or there is none)."""
+        since = self._none_healthy_since
+        return 0.0 if since is None else time.monotonic() - since
+
     def returned(self, key: Any) -> None:
         """The run of future ``key`` returned: a worker it made hung works again."""
         for worker, keys in list(self._overdue.items()):
             if key in keys:
                 del self._overdue[worker]
-                self._hung_since.pop(worker, None)
                 self.hung.discard(worker)
 
     def overdue(self, client: Any, in_flight: dict[Any, ExperimentSpec]) -> list[tuple[Any, str, float]]:
@@ -683,10 +687,8 @@ class _RunClock:
             started = self._started.get(future.key)
             if started is not None and now - started > self.run_timeout:
                 worker = self._seen[future.key][0]
-                if worker != QUEUED:
-                    self.hung.add(worker)
-                    self._hung_since.setdefault(worker, now)
-                    self._overdue.setdefault(worker, set()).add(future.key)
+                self.hung.add(worker)
+                self._overdue.setdefault(worker, set()).add(future.key)
                 self.attempts[spec.key] += 1
                 self._workers.setdefault(spec.key, []).append(worker)
                 found.append((future, worker, now - started))

@@ -260,7 +260,7 @@ def run_campaign(
             summary.other_rows = len(storage.stored_keys(path) - {s.key for s in specs})
         summary.wall_s = time.perf_counter() - t_start
         return summary
-    with _sigterm_interrupts() as terminated:  # SIGTERM flushes the returned rows, as Ctrl-C does
+    with _sigterm_interrupts() as terminated, _quiet_client_logs():  # SIGTERM flushes rows, as Ctrl-C does
         client, cluster = (None, None) if workers == 0 else _connect(scheduler, workers)
         summary.workers = 0 if client is None else sum(_nthreads(client).values())
         try:
@@ -325,7 +325,12 @@ def start_local_cluster(workers: int | None = None) -> Any:
             threads_per_worker=1,
             processes=True,
             dashboard_address=None,
-            silence_logs=logging.ERROR,
+            # the scheduler's HTTP server (health, metrics) on a free port: its default 8787, taken by
+            # another cluster or notebook, printed a warning
+            scheduler_kwargs={"dashboard_address": ":0"},
+            # the workers' own logs: a worker's failed heartbeat while the cluster closes is logged at
+            # ERROR with its traceback; the campaign reports what failed (its runs' errors) itself
+            silence_logs=logging.CRITICAL,
         )
 
 
@@ -340,6 +345,25 @@ def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any]:
         return Client(scheduler, timeout=CONNECT_TIMEOUT_S), None
     except (OSError, TimeoutError, ValueError) as err:
         raise SchedulerError(scheduler, f"cannot connect ({' '.join(str(err).split())})") from None
+
+
+@contextlib.contextmanager
+def _quiet_client_logs() -> Iterator[None]:
+    """Silence the client's Dask loggers while a campaign holds a client; restore them after.
+
+    When the scheduler goes away, distributed logs the closed batched comm with its traceback
+    (``distributed.batched``, at INFO) and its reconnection attempts (``distributed.client``);
+    the campaign says it in one line (:class:`SchedulerError`), with the rows it kept.
+    """
+    loggers = [logging.getLogger(name) for name in ("distributed.batched", "distributed.client")]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, levels, strict=True):
+            logger.setLevel(level)
 
 
 @contextlib.contextmanager

@@ -237,8 +237,14 @@ class SimulationResult:
         return pose_error_mm_deg(self.camera_pose[-1], self.camera_pose_target)
 
     def _require_samples(self, what: str) -> None:
-        if len(self) == 0:
-            raise InvalidArrayError("SimulationResult", f"no samples (asked for {what})", ">= 1 sample")
+        if len(self) == 0:  # say why: a run stopped before its first sample (its status and error)
+            error = self.metadata.get("error")
+            why = f"the run ended with status {self.status!r} before its first sample" + (
+                f" ({error})" if error else ""
+            )
+            raise InvalidArrayError(
+                "SimulationResult", f"no samples (asked for {what}): {why}", ">= 1 sample"
+            )
 
     # ------------------------------------------------------------------ persistence
     def _arrays(self) -> dict[str, np.ndarray]:

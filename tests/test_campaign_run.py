@@ -129,6 +129,7 @@ def test_temporary_files_are_not_rows(tmp_path):
     (tmp_path / "rows").mkdir()
     writer = RowWriter(tmp_path, batch_rows=2, batch_seconds=1e9)
     row = {name: (0.5 if kind is float else 1 if kind is int else "x") for name, kind in COLUMNS.items()}
+    row.update(outcome="reached", status="complete")  # values a run has (a part with others is damaged)
     assert writer.add({**row, "key": "a"}) is None and writer.seconds_until_due() > 0.0
     part = writer.add({**row, "key": "b"})  # the second row completes the batch
     assert part is not None and part.name.startswith("part-") and writer.written == 2 and len(writer) == 0

@@ -101,8 +101,8 @@ class CampaignDefinition:
 
         one_of(self.family, "family", FAMILIES)
         defaults = FAMILY_DEFAULTS[self.family]
-        integer(self.cases, "cases", low=1)
-        integer(self.seed, "seed", low=0, high=MAX_SEED)  # a Parquet int64 column holds it
+        put("cases", integer(self.cases, "cases", low=1))
+        put("seed", integer(self.seed, "seed", low=0, high=MAX_SEED))  # a Parquet int64 column holds it
         if not isinstance(self.controllers, (str, list, tuple)):
             raise InvalidParameterError("controllers", self.controllers, "a list of method labels")
         names = (self.controllers,) if isinstance(self.controllers, str) else tuple(self.controllers)

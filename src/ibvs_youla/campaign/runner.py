@@ -533,9 +533,9 @@ def _collect(
     def submit(specs: list[ExperimentSpec], retries: int, again: bool = False) -> None:
         """Submit ``specs``; ``again``: copies of runs that did not return, run next wherever they land."""
         extra = clock.placement(client)
-        futures = client.map(
-            function, [s.to_json() for s in specs], pure=False, retries=retries, priority=int(again), **extra
-        )
+        if again:  # run next wherever they land (a worker runs by priority, then submission)
+            extra["priority"] = 1
+        futures = client.map(function, [s.to_json() for s in specs], pure=False, retries=retries, **extra)
         clock.submitted(futures, again)
         in_flight.update(zip(futures, specs, strict=True))
 

@@ -69,13 +69,33 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "wb") -> Iterator[IO[
 
     Yields:
         The open temporary file. If the block raises, it is deleted and ``path`` is untouched.
+
+    Raises:
+        InvalidParameterError: ``path`` is a folder, or its folder does not exist or cannot be
+            written (the message names ``path`` and its folder, not the temporary file).
     """
     if mode not in ("wb", "w"):
         raise InvalidParameterError("mode", mode, "'wb' or 'w'")
     path = Path(path)
+    if path.is_dir():
+        raise InvalidParameterError("path", str(path), "a file to write (this is a folder)")
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
     try:
-        with open(tmp, mode, **({} if mode == "wb" else {"encoding": "utf-8"})) as stream:
+        opened = open(tmp, mode, **({} if mode == "wb" else {"encoding": "utf-8"}))
+    except OSError as err:  # named by the file asked for, not by the hidden temporary one
+        folder = path.parent
+        why = (
+            f"its folder {folder} does not exist"
+            if not folder.exists()
+            else f"its folder {folder} is not a folder"
+            if not folder.is_dir()
+            else f"its folder {folder} cannot be written ({err.strerror})"
+        )
+        raise InvalidParameterError(
+            "path", str(path), f"a file in a folder that exists and can be written: {why}"
+        ) from None
+    try:
+        with opened as stream:
             yield stream
             _pause_for_tests()
             stream.flush()

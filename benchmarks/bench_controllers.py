@@ -24,6 +24,13 @@ Cases:
   scenarios; a configuration is kept when every marker is visible. Every twist method and the
   paper's controllers (``fb`` and ``ff+fb``, adaptive: Eq. (62) and the SVD of the image Jacobian
   at every frame), fed the encoder reading q_true - d.
+* ``textured``: the textured plane (``scenarios.textured_plane()``: the free camera 1 m before it,
+  the 120 x 90 px camera of ``scenarios.textured_camera()``), for the methods that servo on the image
+  (``photometric``), which run on no other case. Configurations: seeded poses on the start ->
+  target path perturbed by 1 cm and 1 deg; each frame carries the image the scene sensor renders
+  (``SceneImageSensor.measure``), not timed with the update, but timed as a part (``scene_frame``:
+  the image and the markers' features, what the loop's sensor costs per frame for this method;
+  ``render_plane``: the warp alone).
 
 A method that refuses a case's task at reset (``InvalidParameterError``: ``ibvs-moments`` on the
 square and on physical-2's isosceles markers) is listed in ``cases[case]["refused"]`` with the
@@ -34,13 +41,15 @@ case: one pass per method, then one per floor call, part and reference law (each
 function back to back, as the update passes do), all of them in every round (3 warm-up rounds),
 so that all see the same machine load. JSON: ``controllers`` maps each registered method to
 ``median_us``, ``p95_us``, ``floor_us``, ``ratio_to_floor`` on its case (``case``: ``mono`` for the
-twist methods, ``irregular`` for those that refuse the square, ``stereo`` for the paper's);
+twist methods, ``irregular`` for those that refuse the square, ``stereo`` for the paper's,
+``textured`` for photometric servoing);
 ``cases[case]["methods"]`` has every method that runs on each case, ``cases[case]["refused"]``
 those that refuse it, ``floor_calls_median_us`` and ``parts_median_us`` the pieces;
 ``reference`` the reference laws; ``machine`` where and when. ``ibvs-polar`` and
 ``ibvs-partitioned`` get ``dgesdd_L`` as their SVD floor (their own L is 8x6 and 8x4 mono, 12x6
 and 9x4 stereo, against the 8x6 and 9x6 timed); ``ibvs-moments`` (L_s* at the target) the
-product ``dot_pinv``.
+product ``dot_pinv``; ``photometric`` the product L_I*^T e (``dot_LTe``: numpy, 6 x N by N, N =
+7,000 pixels).
 
 **Floor** of a method: the native calls its update cannot avoid, each timed bare on the same data
 (:data:`FLOORS`); ``floor_us`` is the sum of their medians and ``ratio_to_floor`` = median / floor.
@@ -106,15 +115,19 @@ from ibvs_youla.controllers.pbvs import theta_u
 from ibvs_youla.estimation.monocular_pose import estimate_camera_pose
 from ibvs_youla.exceptions import InvalidParameterError
 from ibvs_youla.model.camera import points_interaction_matrix, triangulate_points
+from ibvs_youla.model.luminance import BORDER_PX
+from ibvs_youla.model.textured_plane import render_plane
+from ibvs_youla.simulation.scene_sensor import SceneImageSensor
 from ibvs_youla.simulation.sensor import MarkerSensor
 
 CAMERA_RATE_HZ = 25.0  # the acceptance scenario's camera rate
 PAPER = ("fb", "ff+fb")  # the paper's controllers: stereo and an arm only
-CASES = ("mono", "irregular", "stereo")
+CASES = ("mono", "irregular", "stereo", "textured")
 CASE_NAMES = {
     "mono": "ViSP tutorial-ibvs-4pts: normalized monocular camera, 4 points, free camera",
     "irregular": "the tutorial's poses with 7 irregular coplanar points: normalized camera, free camera",
     "stereo": "physical-2: StereoCamera.zed2(), 3 markers, IRB 4600 joint path",
+    "textured": "textured plane: 120 x 90 px pinhole camera, free camera, the image of every frame",
 }
 # The native calls each method's update cannot avoid (module docstring), per case.
 _MONO_FLOORS = {
@@ -145,6 +158,7 @@ FLOORS: dict[str, dict[str, tuple[str, ...]]] = {
         "fb": ("fk", "frame_placement", "frame_jacobian", "dgesdd_J", "dgesdd_3x3"),
         "ff+fb": ("fk", "frame_placement", "frame_jacobian", "dgesdd_J", "dgesdd_3x3"),
     },
+    "textured": {"photometric": ("dot_LTe",)},
 }
 IRREGULAR_O = np.array([[1, 0], [3, 1], [4, 4], [-1, 4], [-3, -2], [-2, -2], [-1, 1]], dtype=float) / 20.0
 IRREGULAR_O = np.column_stack((IRREGULAR_O - IRREGULAR_O.mean(axis=0), np.zeros(len(IRREGULAR_O))))  # [m]
@@ -224,13 +238,43 @@ def _stereo_case(n: int, rng: np.random.Generator) -> tuple[ServoTask, list[Any]
     return task, out, dropped
 
 
+def _textured_case(n: int, rng: np.random.Generator) -> tuple[ServoTask, list[Any], int]:
+    """Task and n (frame with its image, None, T_O_C) before the textured plane; none dropped."""
+    scenario, camera = scenarios.textured_plane(), scenarios.textured_camera()
+    sensor = SceneImageSensor(MarkerSensor(camera, scenario.markers_O), scenario.scene)
+    T_start, T_target = np.asarray(scenario.T_O_C_start), np.asarray(scenario.T_O_C_target)
+    period = 1.0 / CAMERA_RATE_HZ
+    task = ServoTask(
+        camera=camera,
+        markers_O=scenario.markers_O,
+        feature_target=sensor.features_at(T_target),
+        T_O_C_target=T_target,
+        tick_period=period,
+        frame_period=period,
+        T_O_C_start=T_start,
+        scene=scenario.scene,
+        image_target=sensor.image_at(T_target),
+    )
+    slerp = Slerp([0.0, 1.0], Rotation.from_matrix([T_start[:3, :3], T_target[:3, :3]]))
+    out = []
+    for f in rng.random(n):
+        T = np.eye(4)
+        T[:3, :3] = (Rotation.from_rotvec(np.radians(1.0) * rng.standard_normal(3)) * slerp(f)).as_matrix()
+        T[:3, 3] = T_start[:3, 3] + f * (T_target[:3, 3] - T_start[:3, 3]) + 0.01 * rng.standard_normal(3)
+        out.append((sensor.measure(T, 0.0), None, T))
+    return task, out, 0
+
+
 def _controllers_for(case: str, task: ServoTask) -> tuple[dict[str, Any], dict[str, str]]:
     """Every registered method that runs on the case, built by name with its defaults, reset.
 
-    And those that refuse the case's task at reset (name -> the reason).
+    And those that refuse the case's task at reset (name -> the reason). The methods that servo
+    on the image run on the textured case alone, and the others on every other case.
     """
     out, refused = {}, {}
     for name in controllers.names():
+        if controllers.make(name).needs_image != (case == "textured"):
+            continue
         if name in PAPER:
             if case != "stereo":
                 continue
@@ -275,6 +319,8 @@ def _jobs(case: str, task: ServoTask, ctrls: dict[str, Any], configs: list[Any])
     import daqp
     import qpsolvers
 
+    if case == "textured":
+        return _textured_jobs(task, ctrls, configs)
     camera, markers_O, n, virtual = task.camera, task.markers_O, task.n_points, task.virtual_points
     ibvs, mpc = ctrls["ibvs-current"], ctrls["mpc-ibvs"]
     target = np.asarray(task.feature_target, dtype=float)
@@ -359,6 +405,26 @@ def _jobs(case: str, task: ServoTask, ctrls: dict[str, Any], configs: list[Any])
             [(camera, s.reshape(n, 3), virtual) for s in features],
         )
         jobs.update(parts)
+    return jobs
+
+
+def _textured_jobs(task: ServoTask, ctrls: dict[str, Any], configs: list[Any]) -> dict[str, Job]:
+    """The photometric update, its floor (L_I*^T e) and the per-frame cost of its sensor."""
+    scenario = scenarios.textured_plane()
+    camera, scene = task.camera, task.scene
+    sensor = SceneImageSensor(MarkerSensor(camera, scenario.markers_O), scene)
+    photometric = ctrls["photometric"]
+    b = BORDER_PX
+    inner = (slice(b, -b), slice(b, -b))  # the feature's pixels: what the update reads
+    L_T = np.ascontiguousarray(photometric.interaction_matrix().T)
+    errors = [(f.image[inner] - task.image_target[inner]).ravel() for f, _, _ in configs]
+    poses = [T for _, _, T in configs]
+    jobs: dict[str, Job] = {
+        name: (ctrl.update, [(f, r) for f, r, _ in configs]) for name, ctrl in ctrls.items()
+    }
+    jobs["floor:dot_LTe"] = (L_T.dot, [(e,) for e in errors])
+    jobs["part:scene_frame"] = (sensor.measure, [(T, 0.0) for T in poses])
+    jobs["part:render_plane"] = (render_plane, [(camera, scene, T) for T in poses])
     return jobs
 
 
@@ -475,6 +541,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "mono": _mono_case,
         "irregular": lambda n, rng: _mono_case(n, rng, IRREGULAR_O),
         "stereo": _stereo_case,
+        "textured": _textured_case,
     }
     for case in CASES:
         task, configs, dropped = builders[case](args.configs, rng)
@@ -577,11 +644,12 @@ def _report(
             "stats": stats,
         }
     # One entry per method: the tutorial case for the twist methods (the irregular points for those
-    # that refuse the square), stereo physical-2 for the paper's.
+    # that refuse the square), stereo physical-2 for the paper's, the textured plane for those that
+    # servo on the image.
     primary: dict[str, Any] = {}
-    for case in ("stereo", "irregular", "mono"):  # later cases take precedence
+    for case in ("stereo", "irregular", "mono", "textured"):  # later cases take precedence
         for name, entry in cases[case]["methods"].items():
-            if (name in PAPER) == (case == "stereo"):
+            if case == "textured" or (name in PAPER) == (case == "stereo"):
                 primary[name] = {**entry, "case": case}
     mono_stats = cases["mono"]["stats"]
     reference: dict[str, Any] = {

@@ -6,10 +6,10 @@ and short runs of this package's ``ibvs-polar`` and ``ibvs-moments`` with
 * ViSP 3.5's ``vpFeaturePointPolar`` (the polar rows) and ``vpFeatureMomentCommon`` on a
   ``DISCRETE`` ``vpMomentObject`` (x_n, y_n, a_n, the invariants P_x and P_y, alpha: values and
   rows), and a ``vpServo`` run on those moment features with L at the desired features, through
-  ``benchmarks/peers/visp_features.cpp`` (built by ``benchmarks/peers/visp_build.py``: g++ and
+  ``benchmarks/peers/visp_features.cpp`` (built by ``benchmarks/peers/visp.py``: g++ and
   ``pkg-config visp``, Debian's ``libvisp-dev``);
 * the toolbox's ``CentralCamera.visjac_p_polar`` and ``IBVS_polar`` (its law's first step and a
-  whole run), in a worker process of a throwaway interpreter (``benchmarks/peers/mvtb_env.py``, or
+  whole run), in a worker process of a throwaway interpreter (``benchmarks/peers/mvtb.py``, or
   ``--mvtb-python PATH``).
 
 Cases: ``polar``: 40 seeded points (x, y within +-0.6, Z in 0.5-3 m), and the point at r = 0.03
@@ -52,9 +52,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE / "peers"))
-from mvtb_env import mvtb_python  # noqa: E402
-from visp_build import Harness, build, visp_version  # noqa: E402
+sys.path.insert(0, str(HERE))
+from peers import mvtb, visp  # noqa: E402
 
 try:  # imported as benchmarks.bench_peer_features
     from ._timing import machine, write_json
@@ -125,10 +124,10 @@ def ours_polar_rows(p: np.ndarray, Z: np.ndarray) -> np.ndarray:
     return polar_interaction_matrix(polar_features(p), *normalized_point_rows(p[:, 0], p[:, 1], Z))
 
 
-def compare_polar(visp: Harness, worker: Any, rng: np.random.Generator) -> dict[str, Any]:
+def compare_polar(harness: visp.Harness, worker: Any, rng: np.random.Generator) -> dict[str, Any]:
     p, Z = polar_cases(rng)
     ours = ours_polar_rows(p, Z)
-    answer = np.array(visp.ask(f"polar {len(p)} " + _numbers(np.column_stack((p, Z)))))
+    answer = np.array(harness.ask(f"polar {len(p)} " + _numbers(np.column_stack((p, Z)))))
     visp_rows = answer.reshape(len(p), 14)[:, 2:].reshape(-1, 6)
     out: dict[str, Any] = {
         "points": len(p),
@@ -195,7 +194,7 @@ def _image(T: np.ndarray, P_O: np.ndarray) -> tuple[np.ndarray, tuple[float, flo
     return P_C[:, :2] / P_C[:, 2:], plane_of_points(P_C)
 
 
-def compare_moments(visp: Harness, rng: np.random.Generator) -> dict[str, Any]:
+def compare_moments(harness: visp.Harness, rng: np.random.Generator) -> dict[str, Any]:
     p_t, plane_t = _image(TARGET, IRREGULAR_O)
     ours = MomentFeatures(p_t, plane_t)
     n = len(p_t)
@@ -207,7 +206,7 @@ def compare_moments(visp: Harness, rng: np.random.Generator) -> dict[str, Any]:
     for T in [TARGET, *moment_poses(rng)]:
         p, plane = _image(T, IRREGULAR_O)
         request = f"moments {n} {ours.depth_target:.17g} {_numbers(plane_t)} {_numbers(plane)} "
-        answer = np.array(visp.ask(request + _numbers(p_t) + " " + _numbers(p)))
+        answer = np.array(harness.ask(request + _numbers(p_t) + " " + _numbers(p)))
         s_visp, L_visp = answer[:6], answer[6:42].reshape(6, 6)
         a = answer[44]  # mu20 + mu02 of the image, ViSP's discrete stand-in for the area
         s, L = ours.features(p), ours.interaction_matrix(p, plane)
@@ -269,7 +268,7 @@ def _area_row(p: np.ndarray, plane: tuple[float, float, float]) -> np.ndarray:
     return 2.0 * (q[:, 0] @ (L_x - L_x.mean(axis=0)) + q[:, 1] @ (L_y - L_y.mean(axis=0)))
 
 
-def compare_moment_run(visp: Harness) -> dict[str, Any]:
+def compare_moment_run(harness: visp.Harness) -> dict[str, Any]:
     """ViSP's vpServo on its moment features (L at the desired ones) against ibvs-moments, 30 s at 25 Hz."""
     start = STARTS["tutorial"]
     steps = 750
@@ -281,7 +280,7 @@ def compare_moment_run(visp: Harness) -> dict[str, Any]:
     request = f"servo {len(IRREGULAR_O)} {LAMBDA} {T} {steps} {pose12(cMo)} {pose12(cdMo)} " + _numbers(
         IRREGULAR_O
     )
-    answer = np.array(visp.ask(request)).reshape(steps, 12)
+    answer = np.array(harness.ask(request)).reshape(steps, 12)
     visp_poses = []
     for row in answer:
         M = np.eye(4)
@@ -377,16 +376,19 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     args = ap.parse_args(argv)
 
     rng = np.random.default_rng(args.seed)
-    worker = None if args.no_mvtb else _Worker(args.mvtb_python or mvtb_python())
+    worker = None if args.no_mvtb else _Worker(args.mvtb_python or str(mvtb.python()))
+    version, why = visp.available()
+    if version is None:
+        raise SystemExit(f"bench_peer_features: {why}")
     try:
-        with Harness(build("visp_features.cpp")) as visp:
+        with visp.Harness(visp.build("visp_features.cpp")) as harness:
             report: dict[str, Any] = {
                 "benchmark": "peer_features",
-                "visp": visp_version(),
+                "visp": version,
                 "mvtb": None if worker is None else worker.version,
-                "polar": compare_polar(visp, worker, rng),
-                "moments": compare_moments(visp, rng),
-                "moment_run": compare_moment_run(visp),
+                "polar": compare_polar(harness, worker, rng),
+                "moments": compare_moments(harness, rng),
+                "moment_run": compare_moment_run(harness),
                 "settings": {"seed": args.seed, "lambda": LAMBDA, "period_s": T},
                 "machine": machine(),
             }

@@ -154,7 +154,8 @@ def _split_cells(split: dict[str, Any]) -> str:
 
 
 def controllers(r: Report) -> str:
-    """One control update of every method, on both cases (a method that refuses the square: on 7 points)."""
+    """One control update of every method, on both cases (a method that refuses the square: on 7 points;
+    one that servoes on the image: on the textured plane)."""
     rows = [
         "| method | mono: median / p95 [us] | floor [us] | ratio | stereo: median / p95 [us] "
         "| floor [us] | ratio |",
@@ -163,9 +164,17 @@ def controllers(r: Report) -> str:
     cases = r["cases"]
     mono, stereo = cases["mono"]["methods"], cases["stereo"]["methods"]
     irregular = cases.get("irregular", {}).get("methods", {})  # reports before the case have none
+    textured = cases.get("textured", {}).get("methods", {})
     for name in r["controllers"]:
         cells = []
-        for case in (mono, stereo):
+        if name in textured:  # it servoes on the image: the textured plane is its case (mono columns)
+            e = textured[name]
+            cells = [
+                f"{_num(e['median_us'])} / {_num(e['p95_us'])} (textured plane) | {_num(e['floor_us'])} | "
+                f"{_num(e['ratio_to_floor'])}",
+                "monocular only | | ",
+            ]
+        for case in (mono, stereo) if not cells else ():
             e, note = case.get(name), ""
             if e is None and case is mono and name in irregular:
                 e, note = irregular[name], " (7 points)"
@@ -178,9 +187,16 @@ def controllers(r: Report) -> str:
                 )
         rows.append(f"| `{name}` | {' | '.join(cells)} |")
     settings = r["settings"]
+    parts = cases.get("textured", {}).get("parts_median_us", {})
+    frame = (
+        f" The textured plane's frame (120 x 90 px image and markers) costs {_num(parts['scene_frame'])} us "
+        f"of which the warp {_num(parts['render_plane'])} us."
+        if {"scene_frame", "render_plane"} <= set(parts)
+        else ""
+    )
     return (
         "\n".join(rows)
-        + f"\n\n{settings['configs']} configurations x {settings['repeats']} rounds per case. "
+        + f"\n\n{settings['configs']} configurations x {settings['repeats']} rounds per case.{frame} "
         f"Measured {_when(r)}.\n"
     )
 

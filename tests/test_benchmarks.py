@@ -113,11 +113,27 @@ def test_controllers_benchmark_writes_every_method(tmp_path):
         assert entry["ratio_to_floor"] == pytest.approx(entry["median_us"] / entry["floor_us"])
         assert entry["n"] == 3
         # the moment features refuse the square and physical-2's isosceles markers: timed on seven points
-        expected_case = {"fb": "stereo", "ff+fb": "stereo", "ibvs-moments": "irregular"}.get(name, "mono")
-        assert entry["case"] == expected_case
-    assert set(saved["cases"]["stereo"]["methods"]) == set(names) - {"ibvs-moments"}
-    assert set(saved["cases"]["mono"]["methods"]) == set(names) - {"fb", "ff+fb", "ibvs-moments"}
-    assert set(saved["cases"]["irregular"]["methods"]) == set(names) - {"fb", "ff+fb"}
+        # photometric servoing needs the image of a textured scene: it runs on the textured case alone
+        expected_case = {
+            "fb": "stereo",
+            "ff+fb": "stereo",
+            "ibvs-moments": "irregular",
+            "photometric": "textured",
+        }
+        assert entry["case"] == expected_case.get(name, "mono")
+    assert set(saved["cases"]["stereo"]["methods"]) == set(names) - {"ibvs-moments", "photometric"}
+    assert set(saved["cases"]["mono"]["methods"]) == set(names) - {
+        "fb",
+        "ff+fb",
+        "ibvs-moments",
+        "photometric",
+    }
+    assert set(saved["cases"]["irregular"]["methods"]) == set(names) - {"fb", "ff+fb", "photometric"}
+    assert set(saved["cases"]["textured"]["methods"]) == {"photometric"}
+    assert saved["controllers"]["photometric"]["floor_us"] == pytest.approx(
+        saved["cases"]["textured"]["floor_calls_median_us"]["dot_LTe"]
+    )
+    assert set(saved["cases"]["textured"]["parts_median_us"]) == {"scene_frame", "render_plane"}
     assert "isotropic" in saved["cases"]["mono"]["refused"]["ibvs-moments"]
     assert set(saved["cases"]["stereo"]["refused"]) == {"ibvs-moments"}
     floor_calls = saved["cases"]["mono"]["floor_calls_median_us"]
@@ -231,6 +247,29 @@ def test_peers_benchmark_writes_our_steps_and_its_table(tmp_path):
     assert saved["peers"] == {} and saved["ratios"] == {} and saved["targets"]["met"] == {}
     table = load("figures").peers(saved)
     assert "measured depth" in table and "ViSP 3.5" not in table and "| n/a | n/a |" in table
+
+
+@pytest.mark.slow
+def test_photometric_benchmark_writes_its_keys(tmp_path):
+    out = tmp_path / "photometric.json"
+    report = load("bench_photometric").main(
+        ["--quick", "--configs", "2", "--repeats", "1", "--json", str(out)]
+    )
+    saved = json.loads(out.read_text())
+    assert [e["width_px"] for e in saved["cost"]] == [120, 320, 640]
+    for entry in saved["cost"]:
+        for key in ("frame", "update", "floor_LTe", "reset"):
+            assert finite_positive(entry[key]["median_us"]), key
+        assert entry["update_ratio_to_floor"] == pytest.approx(
+            entry["update"]["median_us"] / entry["floor_LTe"]["median_us"]
+        )
+    for axis in ("rotation_z_deg", "translation_x_m"):
+        for method in ("photometric", "ibvs-current"):
+            d = saved["domains"][axis][method]
+            assert len(d["values"]) == len(d["converged"]) == 2 and d["basin"] in d["values"] + [0.0]
+    assert set(saved["texture"]["smoothing_texels"]) == {"1.5", "3", "6"}
+    assert set(saved["noise"]["steady_mm"]) == {"photometric", "ibvs-current"}
+    assert report["cost"] == saved["cost"] and saved["machine"]["date"]
 
 
 @pytest.mark.slow

@@ -391,6 +391,12 @@ def test_the_whole_suite_outcomes(capsys, tmp_path):
     table = (tmp_path / "suite.md").read_text().split("\n\n", 1)[1]
     _assert_documented(table, CONTROLLERS_PAGE.read_text(encoding="utf-8"))  # the docs page's table
     outcome = {(t["task"], r["controller"]): r for t in report["tasks"] for r in t["rows"]}
+    # photometric servoing does not apply to four points and the normalized camera: n/a, not run
+    not_run = {key: r for key, r in outcome.items() if r["status"] == "n/a"}
+    assert set(not_run) == {(t.name, "photometric") for t in suites.GANS_2003}
+    assert all(r["reason"] == suites.NOT_APPLICABLE and r["duration_s"] is None for r in not_run.values())
+    assert f"n/a: photometric does not apply ({suites.NOT_APPLICABLE})." in text
+    outcome = {key: r for key, r in outcome.items() if key not in not_run}
     failed = {key: r["outcome"] for key, r in outcome.items() if r["outcome"] != "converged"}
     # the moment features refuse the face-on square (isotropic moments) on every task
     assert {key: failed.pop(key) for key in list(failed) if key[1] == "ibvs-moments"} == {
@@ -405,7 +411,9 @@ def test_the_whole_suite_outcomes(capsys, tmp_path):
     for angle in (30, 60, 90, 120, 150, 180):
         for name in ("pbvs", "2.5d"):
             assert outcome[(f"gans-rz-{angle}", name)]["path_length_m"] < 1e-9
-    general = {name: outcome[("gans-general", name)] for name in report["controllers"]}
+    general = {
+        name: outcome[("gans-general", name)] for name in report["controllers"] if name != "photometric"
+    }
     assert general["pbvs"]["path_ratio"] == pytest.approx(1.0, abs=1e-3)
     assert general["ibvs-desired"]["feature_excursion"] == pytest.approx(13.777953, rel=1e-6)
     assert all(
@@ -414,6 +422,43 @@ def test_the_whole_suite_outcomes(capsys, tmp_path):
         if n not in ("ibvs-desired", "ibvs-moments")  # the moments did not run
     )
     assert (tmp_path / "gans-general" / "table.md").is_file()
+
+
+def test_the_textured_plane_compares_photometric_servoing_with_the_point_laws(capsys, tmp_path):
+    """``--scenario textured-plane``: the free camera at 25 Hz, the 120 x 90 px camera. Photometric
+    servoing converges first (2.28 s, measured) on a path 1.75 times the straight line; classical
+    IBVS on the square's corners at 8.24 s, on the line (lambda = 0.5 against 30)."""
+    out = tmp_path / "textured"
+    argv = ("compare", "--scenario", "textured-plane", "--controllers", "photometric,ibvs-current")
+    code, text, _ = run(capsys, *argv, "--duration", "10", "--out", str(out), "--no-plots")
+    assert code == 0 and "textured-plane on the free-camera plant, 10 s simulated" in text
+    photometric, ibvs = json.loads((out / "table.json").read_text())["rows"]
+    assert photometric["outcome"] == ibvs["outcome"] == "converged"
+    assert photometric["time_to_converge_s"] == pytest.approx(2.28, abs=1e-9)
+    assert ibvs["time_to_converge_s"] == pytest.approx(8.24, abs=1e-9)
+    assert photometric["path_ratio"] == pytest.approx(1.745, abs=0.001) and ibvs["path_ratio"] < 1.0 + 1e-9
+    assert not photometric["markers_left_view"]
+    assert photometric["feature_excursion"] == pytest.approx(0.558, abs=1e-3)
+    # on a scenario without a scene it is refused by name, a row and not a crash
+    rows = compare(
+        suites.task("gans-rz-30").scenario(),
+        ["photometric", "pbvs"],
+        plant="free-camera",
+        camera=iy.PinholeCamera.normalized(),
+        duration=0.2,
+        settings=suites.suite_settings(),
+    ).rows
+    assert (rows[0].status, rows[1].status) == ("rejected", "complete")
+    assert "a scenario with a scene for 'photometric'" in rows[0].reason
+
+
+def test_the_suite_gives_photometric_servoing_an_na_column_with_the_reason():
+    report = suites.run_suite(["pbvs", "photometric"], [suites.task("gans-rz-30")], duration=0.2)
+    row = report.comparison("gans-rz-30").row("photometric")
+    assert (row.status, row.ran, row.reason) == ("n/a", False, suites.NOT_APPLICABLE)
+    assert report.table_markdown().splitlines()[2].endswith(" | n/a |")
+    alone = suites.run_suite(["photometric"], [suites.task("gans-rz-30")], duration=0.2)
+    assert [r.status for r in alone.comparisons[0].rows] == ["n/a"]
 
 
 def test_compare_has_help_and_is_listed(capsys):

@@ -7,7 +7,8 @@ of the target tool, three markers on the flange 0.6-0.8 m from it at the target,
 * each method's model of the eye-to-hand image Jacobian ds/dq = L_s J_rel (its features' interaction
   matrix times the camera's twist relative to the markers) equals finite differences of its
   features in q: the paper's stereo points (Eq. (51), the compiled kernel), the point laws' L with
-  the stereo and the normalized camera, polar, partitioned and moment features, 2.5-D and PBVS;
+  the stereo and the normalized camera, polar, partitioned and moment features, 2.5-D, PBVS, and
+  the luminance of a textured plane carried by the tool (photometric);
 * a constant joint velocity moves the recorded features as that Jacobian predicts;
 * every registered method reaches the target on the kinematic and the dynamic arm;
 * the compiled frame path covers eye-to-hand and gives the plug-in loop's run to 1e-12;
@@ -30,8 +31,11 @@ from ibvs_youla.controllers.pbvs import theta_u
 from ibvs_youla.controllers.polar import polar_features, polar_interaction_matrix
 from ibvs_youla.controllers.two_half_d import interaction_matrix as two_half_d_matrix
 from ibvs_youla.estimation.eye_in_hand import EyeInHand
-from ibvs_youla.model.camera import points_interaction_matrix, project_points
+from ibvs_youla.model.camera import pixel_centres_normalized, points_interaction_matrix, project_points
 from ibvs_youla.model.eye_to_hand import mounted
+from ibvs_youla.model.luminance import BORDER_PX, image_gradients, luminance_interaction_matrix
+from ibvs_youla.model.mount import Mount
+from ibvs_youla.model.textured_plane import TexturedPlane
 from ibvs_youla.simulation.disturbances import Disturbances
 from ibvs_youla.simulation.sensor import MarkerSensor
 
@@ -47,6 +51,28 @@ def arm():
 def case(arm):
     scenario = iy.scenarios.eye_to_hand(arm, seed=1)
     return scenario, mounted(arm, scenario.mount)
+
+
+TEXTURED_CAMERA = iy.scenarios.textured_camera()  # 120 x 90 px, 150 px
+INNER = (slice(BORDER_PX, -BORDER_PX), slice(BORDER_PX, -BORDER_PX))
+
+
+def textured_case(arm, smoothing_texels=3.0):
+    """A textured plane on the tool, 1 m before a camera fixed in front of it (photometric servoing's
+    scene, in the carrier frame), the 0.2 m square of markers on it; the start 0.3-0.6 deg per joint
+    away (a few cm: the photometric basin)."""
+    q_target = np.radians([3.0, 8.0, -4.0, 5.0, 35.0, 4.0])
+    q_start = q_target + np.radians([0.4, -0.3, 0.3, -0.5, 0.4, 0.6])
+    mount = Mount.eye_to_hand(iy.scenarios.fixed_camera_pose(arm.flange_pose(q_target), 1.0))
+    plane = TexturedPlane.facing(
+        mounted(arm, mount).camera_pose(q_target), 1.0, smoothing_texels=smoothing_texels
+    )
+    square = plane.points_O(
+        [[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]]
+    )  # in {E}
+    return iy.Scenario(
+        q_start=q_start, q_target=q_target, markers_E=square, mount=mount, scene=plane, name="e2h-textured"
+    )
 
 
 # ------------------------------------------------------------------------------ image Jacobians in q
@@ -156,6 +182,39 @@ def test_every_methods_image_jacobian_equals_finite_differences_in_q(case, name)
     np.testing.assert_allclose(J, J_fd, rtol=0, atol=1e-7 * np.abs(J).max())  # measured <= 3e-9 relative
 
 
+def test_the_photometric_image_jacobian_equals_finite_differences_of_the_image_in_q(arm):
+    """L_I J_rel against central differences of the rendered luminance in each joint, steps moving the
+    image about 1 px at its edge. As tests/test_photometric.py pins L_I in the twist: 3 % per column
+    (relative, in norm) on a smooth texture (12 texels of low-pass), the differencing error of the
+    7-tap gradient filter and of the bilinear texture's kinks, which falls as the texture smooths
+    (measured 0.6-2.1 % at 12 texels, 1.6-3.7 % at 8); the opposite sign (eye-in-hand's, +L J_E) 200 %."""
+    scenario = textured_case(arm, smoothing_texels=12.0)
+    view = mounted(arm, scenario.mount)
+    plane, q = scenario.scene, scenario.q_true_start
+    T, J_rel = view.camera_pose_and_jacobian(q)
+    image = plane.render(TEXTURED_CAMERA, T)
+    I_x, I_y = image_gradients(image, TEXTURED_CAMERA)
+    x, y = pixel_centres_normalized(TEXTURED_CAMERA)
+    Z = plane.depths(TEXTURED_CAMERA, T)
+    L_I = luminance_interaction_matrix(*(a[INNER].ravel() for a in (I_x, I_y, x, y, Z)))
+    model = L_I @ J_rel
+    f_px, x_edge = 150.0, (60 - BORDER_PX) / 150.0
+    errors = []
+    for j in range(view.nq):
+        v, w = J_rel[:3, j], J_rel[3:, j]
+        speed_px = f_px * (np.hypot(*v[:2]) + x_edge * abs(v[2]) + np.hypot(*w[:2]) + x_edge * abs(w[2]))
+        h = 1.0 / speed_px  # [rad]: the image moves about 1 px at its edge (Z ~ 1 m)
+        e = np.zeros(view.nq)
+        e[j] = h
+        plus, minus = (
+            plane.render(TEXTURED_CAMERA, view.camera_pose(q + s * e)).astype(float) for s in (1, -1)
+        )
+        fd = ((plus - minus) / (2.0 * h))[INNER].ravel()
+        errors.append(np.linalg.norm(model[:, j] - fd) / np.linalg.norm(fd))
+        assert np.linalg.norm(-model[:, j] - fd) / np.linalg.norm(fd) > 1.9  # the test tells the sign
+    assert max(errors) < 0.03, errors
+
+
 # ------------------------------------------------------------------------------------- the loop
 class ConstantJointVelocity(Controller):
     command_type = CommandType.JOINT_VELOCITY
@@ -189,7 +248,7 @@ def test_a_constant_joint_velocity_moves_the_features_as_the_jacobian_predicts(c
 NOT_REACHED: dict[tuple[str, str], str] = {}
 # [s]: 12 s for the others (measured 0.03 mm left at 15 s); the partitioned law's z partition (ln sigma,
 # theta) decays with a time constant of about 5 s here (0.29 mm left at 25 s)
-DURATION = {"ibvs-partitioned": 25.0}
+DURATION = {"ibvs-partitioned": 25.0, "photometric": 3.0}
 TWIST_KINEMATIC = iy.SimulationSettings(joint_rate_hz=100.0, camera_rate_hz=100.0)
 DYNAMIC = iy.SimulationSettings(joint_rate_hz=200.0, camera_rate_hz=100.0)  # the inner loop needs >= 100 Hz
 
@@ -206,12 +265,20 @@ def test_every_method_reaches_the_target_eye_to_hand_on_both_arms(arm, case):
     relative to the markers (T_E_C) at the end; joints within their limits throughout. The start 2 deg
     per joint from the target, as the eye-in-hand runs of tests/test_any_arm_servo.py."""
     scenario = iy.scenarios.eye_to_hand(arm, seed=1, step_deg=2.0)
+    textured = textured_case(arm)  # photometric servoing needs the image of a scene, and a pinhole camera
     outcomes = {}
     for plant in ("kinematic", "dynamic"):
         for method in iy.controllers.names():
             duration = DURATION.get(method, 12.0)
+            options = {"camera": TEXTURED_CAMERA} if method == "photometric" else {}
             result = iy.simulate(
-                scenario, method, arm=arm, plant=plant, duration=duration, settings=_settings(plant, method)
+                textured if method == "photometric" else scenario,
+                method,
+                arm=arm,
+                plant=plant,
+                duration=duration,
+                settings=_settings(plant, method),
+                **options,
             )
             mm, deg = result.final_pose_error()
             inside = arm.within_limits(result.q_true.min(axis=0)) and arm.within_limits(

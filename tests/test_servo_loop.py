@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -10,6 +12,7 @@ from ibvs_youla import controllers, scenarios
 from ibvs_youla.controllers import CommandType, Controller
 from ibvs_youla.exceptions import IncompatibleCommandError, InvalidParameterError
 from ibvs_youla.model.camera import PinholeCamera, StereoCamera
+from ibvs_youla.model.textured_plane import TexturedPlane
 from ibvs_youla.simulation.sensor import MarkerSensor
 from ibvs_youla.simulation.simulate import PLANTS
 from servo_helpers import MARKERS_4, ConstantTwist
@@ -127,8 +130,18 @@ def test_every_registered_controller_runs_on_every_plant_or_says_why_not(name, p
         with pytest.raises(InvalidParameterError, match=REFUSES_PHYSICAL_2[name]):
             iy.simulate(scenarios.physical(2), ctrl, duration=0.05, plant=plant, arm=arm)
         return
+    scenario, camera = scenarios.physical(2), None
+    if ctrl.needs_image:  # it servoes on the image of a scene: refused on markers alone, typed
+        with pytest.raises(InvalidParameterError, match="a scenario with a scene"):
+            iy.simulate(scenario, ctrl, duration=0.05, plant=plant, arm=arm)
+        # the same start and target before a textured plane 1.2 m from the target camera, seen by
+        # a monocular camera with pixels; four markers on the plane (a monocular camera needs 4)
+        plane = TexturedPlane.facing(arm.camera_pose(scenario.q_target), 1.2)
+        square = plane.points_O([[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]])
+        scenario = dataclasses.replace(scenario, scene=plane, markers_O=square)
+        camera = scenarios.textured_camera()
     try:
-        result = iy.simulate(scenarios.physical(2), ctrl, duration=0.05, plant=plant, arm=arm)
+        result = iy.simulate(scenario, ctrl, duration=0.05, plant=plant, arm=arm, camera=camera)
     except IncompatibleCommandError as err:
         assert not runs
         assert err.command_type == ctrl.command_type.value and err.plant == plant

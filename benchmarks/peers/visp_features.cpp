@@ -2,7 +2,7 @@
 // moment features (vpFeatureMomentCommon, discrete points) and polar point features
 // (vpFeaturePointPolar), and a short moment servo run, on cases read from stdin.
 //
-// Built by benchmarks/peers/visp_build.py (g++, pkg-config visp); not a dependency of the package.
+// Built by benchmarks/peers/visp.py (g++, pkg-config visp); not a dependency of the package.
 // Protocol: one request per line on stdin, one answer per line on stdout, numbers separated by
 // spaces (%.17g):
 //   moments n Zd Ad Bd Cd A B C xd_1 yd_1 ... xd_n yd_n x_1 y_1 ... x_n y_n

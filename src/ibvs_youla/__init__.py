@@ -28,6 +28,7 @@ _LAZY: dict[str, str] = {
     "StereoCamera": ".model.camera",
     "PinholeCamera": ".model.camera",
     "Visibility": ".model.camera",
+    "TexturedPlane": ".model.textured_plane",
     # estimation
     "EyeInHand": ".estimation.eye_in_hand",
     "rigid_transform_from_points": ".estimation.stereo_pose",
@@ -71,6 +72,7 @@ __all__ = [
     "SimulationSettings",
     "SingularValuePolicy",
     "StereoCamera",
+    "TexturedPlane",
     "Visibility",
     "__version__",
     "analysis",
@@ -117,6 +119,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .model import robots
     from .model.arm import Arm
     from .model.camera import PinholeCamera, StereoCamera, Visibility
+    from .model.textured_plane import TexturedPlane
     from .scenarios import Scenario
     from .simulation.disturbances.definition import Disturbances
     from .simulation.image_sensor import ImageSensor

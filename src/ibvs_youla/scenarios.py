@@ -57,6 +57,8 @@ __all__ = [
     "FOR_ARM_MIN_SIGMA",
     "NAMES",
     "PAPER_MARKERS_O",
+    "TEXTURED_DEPTH_M",
+    "TEXTURED_START",
     "Scenario",
     "eye_to_hand",
     "fixed_camera_pose",
@@ -68,6 +70,8 @@ __all__ = [
     "physical",
     "physical_scenarios",
     "place_markers",
+    "textured_camera",
+    "textured_plane",
 ]
 
 # Table 1, joint angles [deg]
@@ -115,6 +119,11 @@ class Scenario:
         description: Free text.
         T_O_C_start: Initial camera pose (4, 4) of a free-camera scenario, else ``None``.
         T_O_C_target: Target camera pose (4, 4) of a free-camera scenario, else ``None``.
+        scene: What the camera images besides the markers: a
+            :class:`~ibvs_youla.model.textured_plane.TexturedPlane` for the methods that servo on
+            the image (``photometric``), or ``None`` (the markers alone, as the paper's scenarios);
+            the plain data of ``TexturedPlane.to_dict()`` is accepted and rebuilt. Eye-to-hand
+            the plane rides on the tool: its ``T_O_P`` is its pose in the carrier frame {E}.
         markers_E: Eye-to-hand: the markers (n, 3) in the frame of the arm that carries them
             (``mount.carrier_frame``, default the flange {E}) [m]; ``None`` eye-in-hand.
         mount: The camera's mounting (:class:`~ibvs_youla.model.mount.Mount`): ``None`` (or
@@ -126,7 +135,8 @@ class Scenario:
         InvalidArrayError: wrong shape or non-finite entries.
         DegenerateMarkersError: coincident or collinear markers.
         InvalidParameterError: neither joints nor camera poses (or both), ``name`` or
-            ``description`` not strings, ``virtual_points`` not bool, ``mount`` not a Mount,
+            ``description`` not strings, ``virtual_points`` not bool, a scene that is not a
+            TexturedPlane, ``mount`` not a Mount,
             markers in the wrong frame for the mounting (``markers_O`` eye-to-hand,
             ``markers_E`` eye-in-hand), an eye-to-hand mounting of a free-camera scenario.
     """
@@ -140,6 +150,7 @@ class Scenario:
     description: str = ""
     T_O_C_start: np.ndarray | None = None
     T_O_C_target: np.ndarray | None = None
+    scene: Any = None
     markers_E: np.ndarray | None = None
     mount: Mount | None = None
 
@@ -178,6 +189,13 @@ class Scenario:
         if not isinstance(self.virtual_points, (bool, np.bool_)):
             raise InvalidParameterError("virtual_points", self.virtual_points, "True or False")
         set_(self, "virtual_points", bool(self.virtual_points))
+        if self.scene is not None:
+            from .model.textured_plane import TexturedPlane
+
+            if isinstance(self.scene, dict):  # plain data, as to_dict() writes it
+                set_(self, "scene", TexturedPlane.from_dict(self.scene))
+            elif not isinstance(self.scene, TexturedPlane):
+                raise InvalidParameterError("scene", type(self.scene).__name__, "a TexturedPlane or None")
 
     @classmethod
     def free_camera(
@@ -189,6 +207,7 @@ class Scenario:
         name: str = "free-camera",
         virtual_points: bool = False,
         description: str = "",
+        scene: Any = None,
     ) -> Scenario:
         """A camera with no arm: start and target poses (4, 4) and markers (n, 3) in the base frame [m]."""
         return cls(
@@ -198,6 +217,7 @@ class Scenario:
             description=description,
             T_O_C_start=T_O_C_start,
             T_O_C_target=T_O_C_target,
+            scene=scene,
         )
 
     def _check_mount(self) -> None:
@@ -262,6 +282,8 @@ class Scenario:
             value = getattr(self, f.name)
             if isinstance(value, np.ndarray):
                 out[f.name] = value.tolist()
+        if self.scene is not None:  # only then: the data (and campaign keys) of scenes-less scenarios stay
+            out["scene"] = self.scene.to_dict()
         if self.mount is not None:  # an eye-in-hand scenario's data (and a campaign's keys) are unchanged
             out["mount"] = self.mount.to_dict()
         return out
@@ -269,10 +291,10 @@ class Scenario:
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Scenario):
             return NotImplemented
-        return self.mount == other.mount and all(
+        return (self.scene, self.mount) == (other.scene, other.mount) and all(
             np.array_equal(getattr(self, f.name), getattr(other, f.name))
             for f in dataclasses.fields(self)
-            if f.name != "mount"
+            if f.name not in ("scene", "mount")
         )
 
     __hash__ = None  # type: ignore[assignment]  # arrays: mutable-looking, not hashable
@@ -719,3 +741,72 @@ def get(name: str) -> Scenario:
         InvalidParameterError: unknown name (the message lists the valid ones).
     """
     return _REGISTRY[one_of(name, "scenario", NAMES)]()
+
+
+# ----------------------------------------------------------------------------- a textured plane
+TEXTURED_DEPTH_M = 1.0  # [m] the plane's distance from the target camera (ViSP's photometric example)
+TEXTURED_SQUARE_M = 0.2  # [m] side of the square of markers on the plane, centred on the optical axis
+# The default start of textured_plane(), in the target camera's frame: a few centimetres and degrees,
+# the style of start of Collewet & Marchand's experiments: (tx, ty, tz) [m], rotation vector [deg].
+TEXTURED_START = ((0.03, -0.02, 0.05), (2.0, -2.0, 3.0))
+
+
+def textured_camera() -> Any:
+    """The camera of :func:`textured_plane`: 120 x 90 px, focal length 150 px (44 x 33 deg).
+
+    ``PinholeCamera.from_focal_px(150, (120, 90))``: small images, so that a run costs little (a
+    pixel sees 6.7 mm of the plane at 1 m, the texture's 5 mm texels smoothed over 15 mm), and a
+    field of view wide enough that the square of markers stays in the image from the starts of
+    photometric servoing, with room for the disc markers' detector. ViSP's photometric example
+    has a narrower one (870 px at 320 x 240: 21 x 16 deg).
+    """
+    from .model.camera import PinholeCamera
+
+    return PinholeCamera.from_focal_px(150.0, (120, 90), name="textured-plane camera")
+
+
+def textured_plane(
+    translation_m: Any = TEXTURED_START[0],
+    rotation_deg: Any = TEXTURED_START[1],
+    *,
+    scene: Any = None,
+    name: str = "textured-plane",
+) -> Scenario:
+    """A free-camera scenario before a textured plane, the scene of photometric visual servoing.
+
+    The target camera looks at the plane's centre from :data:`TEXTURED_DEPTH_M` = 1 m, its axes
+    those of the base frame (``T_O_C* = [I, (0, 0, -1)]``, the plane z = 0: ViSP's
+    ``photometricVisualServoing`` geometry); the start is the target camera moved by
+    ``translation_m`` (tx, ty, tz) [m] and turned by the rotation vector ``rotation_deg`` [deg],
+    both in the target camera's frame: ``T_O_C0 = T_O_C* [R(rotation), t]``. The markers are the
+    corners of a 0.2 m square centred on the plane (what point methods servo on, and what the
+    comparison metrics measure); the scene defaults to ``TexturedPlane()`` (1.2 x 0.9 m, a
+    generated texture, seed 0). Image it with :func:`textured_camera`.
+
+    Raises:
+        InvalidArrayError: a translation or rotation that is not three finite numbers.
+    """
+    from scipy.spatial.transform import Rotation
+
+    from .model.textured_plane import TexturedPlane
+
+    t = as_array(translation_m, "translation_m", (3,))
+    r = as_array(rotation_deg, "rotation_deg", (3,))
+    T_target = np.eye(4)
+    T_target[2, 3] = -TEXTURED_DEPTH_M
+    delta = np.eye(4)
+    delta[:3, :3] = Rotation.from_rotvec(np.radians(r)).as_matrix()
+    delta[:3, 3] = t
+    half = 0.5 * TEXTURED_SQUARE_M
+    markers = np.array([[-half, -half, 0.0], [half, -half, 0.0], [half, half, 0.0], [-half, half, 0.0]])
+    return Scenario.free_camera(
+        T_target @ delta,
+        T_target,
+        markers,
+        name=name,
+        description=(
+            f"a textured plane 1 m before the target camera; start t = {t.round(4).tolist()} m, "
+            f"rotation {r.round(3).tolist()} deg in the target camera's frame"
+        ),
+        scene=TexturedPlane() if scene is None else scene,
+    )

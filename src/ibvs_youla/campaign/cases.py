@@ -39,6 +39,14 @@ Families (:data:`FAMILIES`):
   moved by up to ``difficulty`` x :data:`ROLL_TRANSLATION_M`, same visibility rule: the
   classical hard case of IBVS (Chaumette 1998: a rotation of 180 deg about the optical axis
   makes the camera retreat; near it, local minima and singular interaction matrices).
+* ``"free-textured"`` — a camera before a textured plane (:func:`~ibvs_youla.scenarios.textured_plane`:
+  the target camera 1 m before it, a 0.1 m square of markers at its centre), the texture generated
+  from a seed drawn for the case; the start a rotation about a random axis by up to
+  ``difficulty`` x :data:`TEXTURED_ROTATION_DEG` and a translation up to ``difficulty`` x
+  :data:`TEXTURED_TRANSLATION_M`: the few centimetres and degrees of photometric visual servoing's
+  experiments (Collewet & Marchand 2011), whose basin is narrow. The scene travels with the
+  case's scenario (``Scenario.to_dict()["scene"]``); every method runs on it, photometric servoing
+  included (it needs the scene, and a camera with pixels: the family's ``{"kind": "pinhole"}``).
 
 The difficulty of a case is reported with it: the rotation angle [deg] and the distance [m]
 between the start and target camera poses.
@@ -70,6 +78,9 @@ __all__ = [
     "MOUNT_STEP_DEG",
     "ROLL_TILT_DEG",
     "ROLL_TRANSLATION_M",
+    "SCENE_FAMILIES",
+    "TEXTURED_ROTATION_DEG",
+    "TEXTURED_TRANSLATION_M",
     "Case",
     "generate_cases",
 ]
@@ -80,11 +91,13 @@ FAMILIES = (
     "free-planar",
     "free-nonplanar",
     "free-roll",
+    "free-textured",
     "arm-eye-in-hand",
     "arm-eye-to-hand",
 )
 MOUNT_FAMILIES = ("arm-eye-in-hand", "arm-eye-to-hand")  # matched: case k is one draw in both
 ARM_FAMILIES = ("arm-physical", "arm-virtual", *MOUNT_FAMILIES)
+SCENE_FAMILIES = ("free-textured",)  # their scenarios carry a scene (a textured plane)
 LIMIT_MARGIN = 0.1  # of each joint's range, kept clear at both ends
 WRIST_MARGIN_DEG = 10.0  # |q5| >= this [deg]
 MIN_JACOBIAN_SIGMA = 0.05  # smallest singular value of the 6x6 LOCAL camera Jacobian (m/rad and 1)
@@ -95,6 +108,8 @@ MAX_TRANSLATION_M = 0.3  # free camera, at difficulty 1 [m]
 MIN_ROLL_DEG, MAX_ROLL_DEG = 90.0, 180.0  # free-roll: about the optical axis, at difficulty 1 [deg]
 ROLL_TILT_DEG = 5.0  # free-roll: about a random axis, at difficulty 1 [deg]
 ROLL_TRANSLATION_M = 0.05  # free-roll, at difficulty 1 [m]
+TEXTURED_ROTATION_DEG = 5.0  # free-textured: about a random axis, at difficulty 1 [deg]
+TEXTURED_TRANSLATION_M = 0.05  # free-textured, at difficulty 1 [m]
 MAX_DRAWS = 200  # rejection sampling gives up after this many draws of one case
 SQUARE_O = np.array([[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]])  # [m]
 OFF_PLANE_O = np.array([[0.0, 0.05, 0.1], [0.05, -0.05, -0.1]])  # [m], the non-planar extras
@@ -163,6 +178,10 @@ def generate_cases(family: str, n: int, seed: int, *, difficulty: float = 1.0) -
         return tuple(
             _arm_case(family, k, np.random.default_rng(s), difficulty, arm, camera)
             for k, s in enumerate(streams)
+        )
+    if family == "free-textured":
+        return tuple(
+            _textured_case(family, k, np.random.default_rng(s), difficulty) for k, s in enumerate(streams)
         )
     return tuple(_free_case(family, k, np.random.default_rng(s), difficulty) for k, s in enumerate(streams))
 
@@ -313,3 +332,32 @@ def _free_case(family: str, index: int, rng: np.random.Generator, difficulty: fl
         }
         return Case(family, index, scenario, _difficulty(T_start, T_target), draw)
     raise _undrawable(family, index, difficulty)
+
+
+def _textured_case(family: str, index: int, rng: np.random.Generator, difficulty: float) -> Case:
+    """A free-textured case (module docstring): a small random offset and a texture of its own seed."""
+    from ..model.textured_plane import TexturedPlane
+    from ..scenarios import textured_plane
+
+    delta = np.eye(4)
+    axis = _random_axis(rng)
+    angle = math.radians(TEXTURED_ROTATION_DEG) * difficulty * rng.random()
+    delta[:3, :3] = _rotvec_matrix(angle * axis)
+    delta[:3, 3] = _uniform_ball(rng, TEXTURED_TRANSLATION_M * difficulty)
+    texture_seed = int(rng.integers(2**31))
+    base = textured_plane(scene=TexturedPlane(seed=texture_seed))
+    T_target = np.asarray(base.T_O_C_target)
+    T_start = matmul(T_target, delta)
+    points = np.asarray(base.markers_O)
+    P_C = matmul(points - T_start[:3, 3], T_start[:3, :3])
+    if P_C[:, 2].min() < 0.1 or np.abs(P_C[:, :2] / P_C[:, 2:]).max() > 1.0:  # no draw of the family's
+        raise _undrawable(family, index, difficulty)  # range comes near: only a huge difficulty does
+    scenario = {
+        "T_O_C_start": T_start,
+        "T_O_C_target": T_target,
+        "markers_O": points,
+        "name": f"{family}-{index}",
+        "virtual_points": False,
+        "scene": base.scene.to_dict(),
+    }
+    return Case(family, index, scenario, _difficulty(T_start, T_target), 1)

@@ -7,7 +7,10 @@ field-of-view limit), 25 Hz and 30 s (ViSP's tutorial-ibvs-4pts settings). A fre
 no joint configurations, so it runs on the free camera only; an arm family's cases are drawn
 by their joint limits and singularities, so they run on an arm plant only (``kinematic`` for
 an ideal inner loop); the paper's controllers (``fb``, ``ff+fb``) command joint positions,
-so they need an arm plant.
+so they need an arm plant. Photometric servoing (``photometric``) servoes on the image of a
+textured scene: it runs on the families whose scenarios carry one (``free-textured``, defaults:
+the free camera with the 120 x 90 px ``{"kind": "pinhole"}`` camera, 25 Hz, 30 s) and a camera with
+pixels, and is refused by name elsewhere.
 
 ``disturbances`` (fields of :class:`~ibvs_youla.simulation.disturbances.Disturbances`, without
 a seed: each case draws its own from the campaign's) apply to every run; they are stored in
@@ -23,7 +26,7 @@ from typing import Any
 
 from .._validation import one_of, positive
 from ..exceptions import InvalidParameterError
-from .cases import ARM_FAMILIES, FAMILIES
+from .cases import ARM_FAMILIES, FAMILIES, SCENE_FAMILIES
 from .spec import CAMERA_KINDS, ExperimentSpec, parse_method, specs_for
 
 __all__ = ["FAMILY_DEFAULTS", "CampaignDefinition", "methods_for_plant"]
@@ -40,8 +43,12 @@ _FREE_DEFAULTS: dict[str, Any] = {
     "duration": 30.0,
     "settings": {"joint_rate_hz": 25.0, "camera_rate_hz": 25.0},
 }
+_TEXTURED_DEFAULTS: dict[str, Any] = {**_FREE_DEFAULTS, "camera": {"kind": "pinhole"}}
 FAMILY_DEFAULTS: dict[str, dict[str, Any]] = {
-    family: _ARM_DEFAULTS if family in ARM_FAMILIES else _FREE_DEFAULTS for family in FAMILIES
+    family: _ARM_DEFAULTS
+    if family in ARM_FAMILIES
+    else (_TEXTURED_DEFAULTS if family in SCENE_FAMILIES else _FREE_DEFAULTS)
+    for family in FAMILIES
 }
 
 
@@ -157,9 +164,10 @@ class CampaignDefinition:
             raise InvalidParameterError("plant", self.plant, f"{valid} family {self.family!r}")
         put("disturbances", self._checked_disturbances())
         for label, (name, own) in zip(names, methods, strict=True):
-            kind = registry.make(
-                name, **{**own, **params.get(label, {})}
-            ).command_type  # raises on unknown ones
+            made = registry.make(name, **{**own, **params.get(label, {})})  # raises on unknown ones
+            kind = made.command_type
+            if made.needs_image:
+                self._check_image_method(label)
             if self.plant == "free-camera" and kind not in FreeCameraPlant.accepts:
                 raise InvalidParameterError(
                     "controllers",
@@ -167,6 +175,26 @@ class CampaignDefinition:
                     f"controllers that command a camera twist on the free camera ({label!r} commands "
                     f"{kind.value}: it needs an arm family and plant)",
                 )
+
+    def _check_image_method(self, label: str) -> None:
+        """A method that servoes on the image needs a family with a scene and a camera with pixels."""
+        from ..model.camera import PinholeCamera
+        from .spec import camera_from_spec
+
+        if self.family not in SCENE_FAMILIES:
+            raise InvalidParameterError(
+                "controllers",
+                label,
+                f"methods that servo on points for the family {self.family!r} ({label!r} servoes on the "
+                f"image of a textured scene: the families {', '.join(SCENE_FAMILIES)} have one)",
+            )
+        camera = camera_from_spec(self.camera)  # type: ignore[arg-type]
+        if not isinstance(camera, PinholeCamera) or camera.unbounded_view:
+            raise InvalidParameterError(
+                "camera",
+                dict(self.camera),  # type: ignore[arg-type]
+                f"a monocular camera with pixels for {label!r} ('pinhole' or 'mono')",
+            )
 
     def _checked_disturbances(self) -> dict[str, Any]:
         from ..simulation.disturbances import Disturbances
@@ -227,12 +255,18 @@ class CampaignDefinition:
         )
 
 
-def methods_for_plant(plant: str) -> tuple[str, ...]:
-    """Every registered controller that can run on ``plant`` (the free camera takes camera twists only)."""
+def methods_for_plant(plant: str, family: str | None = None) -> tuple[str, ...]:
+    """Every registered controller that can run on ``plant`` (the free camera takes camera twists only).
+
+    With a ``family``, a method that servoes on the image of a scene only if the family's
+    scenarios carry one (:data:`~.cases.SCENE_FAMILIES`).
+    """
     from .. import controllers as registry
 
-    return tuple(
-        name
-        for name in registry.names()
-        if plant != "free-camera" or registry.make(name).command_type.value == "camera_twist"
-    )
+    def runs(name: str) -> bool:
+        made = registry.make(name)
+        if made.needs_image and family is not None and family not in SCENE_FAMILIES:
+            return False
+        return plant != "free-camera" or made.command_type.value == "camera_twist"
+
+    return tuple(name for name in registry.names() if runs(name))

@@ -45,7 +45,7 @@ __all__ = [
     "split_methods",
 ]
 
-CAMERA_KINDS = ("stereo", "mono", "normalized")
+CAMERA_KINDS = ("stereo", "mono", "normalized", "pinhole")
 
 
 def _plain(value: Any) -> Any:
@@ -159,9 +159,12 @@ def sort_methods(rows: Any) -> list[str]:
 
 
 def camera_from_spec(camera: Mapping[str, Any]) -> Any:
-    """The camera of a spec: ``{"kind": "stereo" | "mono" | "normalized", ...}`` (zed2 keywords).
+    """The camera of a spec: ``{"kind": "stereo" | "mono" | "normalized" | "pinhole", ...}``.
 
-    Stereo and mono default to the paper's ZED 2 optics in the VGA mode (the simulator's default).
+    Stereo and mono take ``zed2`` keywords and default to the paper's ZED 2 optics in the VGA mode
+    (the simulator's default); pinhole takes ``PinholeCamera.from_focal_px`` keywords (``focal_px``,
+    ``resolution``, ...) and defaults to the 120 x 90 px camera of the textured plane
+    (:func:`~ibvs_youla.scenarios.textured_camera`).
     """
     from ..model.camera import PinholeCamera, StereoCamera
 
@@ -173,6 +176,10 @@ def camera_from_spec(camera: Mapping[str, Any]) -> Any:
         return StereoCamera.zed2(**{"mode": "VGA", **options})
     if kind == "mono":
         return PinholeCamera.zed2(**{"mode": "VGA", **options})
+    if kind == "pinhole":
+        if "resolution" in options:
+            options["resolution"] = tuple(options["resolution"])
+        return PinholeCamera.from_focal_px(**{"focal_px": 150.0, "resolution": (120, 90), **options})
     raise InvalidParameterError("camera.kind", kind, " or ".join(repr(k) for k in CAMERA_KINDS))
 
 
@@ -294,6 +301,7 @@ class ExperimentSpec:
             name=str(data.get("name", f"{self.family}-{self.case}")),
             virtual_points=bool(data.get("virtual_points", False)),
             description=str(data.get("description", "")),
+            scene=data.get("scene"),  # plain data of a TexturedPlane, or None
             mount=None if data.get("mount") is None else Mount.from_dict(data["mount"]),
         )
         settings = dict(self.settings)

@@ -98,7 +98,7 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
     plant = args.plant or FAMILY_DEFAULTS[args.family]["plant"]
     names = args.controllers
     if names is None:
-        names = methods_for_plant(plant)
+        names = methods_for_plant(plant, args.family)
     # the client's own log would print the reconnection attempts' tracebacks: errors are one line here
     logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
     try:

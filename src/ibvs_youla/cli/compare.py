@@ -3,8 +3,12 @@
 ``--scenario NAME`` takes the named scenarios (``paper-1``, ..., ``physical-2``: the dynamic arm,
 the ZED 2 stereo camera at 100 Hz and 10 s by default, every registered controller) or a task
 of the suite (``gans-rz-180``, ...: the free camera, the normalized monocular camera at 25 Hz and
-30 s, every controller that commands a camera twist). ``--suite gans2003`` runs every task of
-:mod:`ibvs_youla.analysis.suites`. The metrics are those of :mod:`ibvs_youla.analysis.compare`.
+30 s, every controller that commands a camera twist), or ``textured-plane``
+(:func:`ibvs_youla.scenarios.textured_plane`: a textured plane and a square of markers, the free
+camera, the 120 x 90 px camera of :func:`~ibvs_youla.scenarios.textured_camera` at 25 Hz and 30 s,
+every controller that commands a camera twist, photometric servoing included). ``--suite
+gans2003`` runs every task of :mod:`ibvs_youla.analysis.suites`. The metrics are those of
+:mod:`ibvs_youla.analysis.compare`.
 """
 
 from __future__ import annotations
@@ -17,13 +21,15 @@ from typing import Any
 from ..files import write_text
 from .base import UsageError, flag_errors
 
+TEXTURED = "textured-plane"  # --scenario name of scenarios.textured_plane()
+
 
 def scenario_names() -> tuple[str, ...]:
-    """Names ``--scenario`` takes: the named scenarios, then the suite's tasks."""
+    """Names ``--scenario`` takes: the named scenarios, the suite's tasks, then the textured plane."""
     from .. import scenarios
     from ..analysis.suites import TASK_NAMES
 
-    return (*scenarios.NAMES, *TASK_NAMES)
+    return (*scenarios.NAMES, *TASK_NAMES, TEXTURED)
 
 
 def controller_list(text: str) -> tuple[str, ...]:
@@ -60,20 +66,27 @@ def _run_scenario(args: argparse.Namespace) -> int:
     from ..simulation.settings import SimulationSettings
 
     name = args.scenario
-    if name in suites.TASK_NAMES:
+    if name == TEXTURED:  # the free camera before a textured plane, as the suite's tasks but with pixels
+        scenario = scenarios.textured_plane()
+        plant = args.plant or "free-camera"
+        camera = scenarios.textured_camera()
+        settings = suites.suite_settings(args.camera_rate or suites.RATE_HZ)
+        duration = args.duration or suites.DURATION_S
+        names = args.controllers or suites.twist_controllers()
+    elif name in suites.TASK_NAMES:
         scenario = suites.task(name).scenario()
         plant = args.plant or "free-camera"
         camera: Any = suites.suite_camera()
         settings = suites.suite_settings(args.camera_rate or suites.RATE_HZ)
         duration = args.duration or suites.DURATION_S
-        names = args.controllers or suites.twist_controllers()
+        names = args.controllers or _without_image_methods(suites.twist_controllers())
     else:
         scenario = scenarios.get(name)
         plant = args.plant or "dynamic"
         camera = default_camera()
         settings = None if args.camera_rate is None else SimulationSettings(camera_rate_hz=args.camera_rate)
         duration = args.duration or 10.0
-        names = args.controllers or controllers.names()
+        names = args.controllers or _without_image_methods(controllers.names())
     comparison = compare(scenario, names, plant=plant, camera=camera, duration=duration, settings=settings)
     out = args.out or Path("results") / "compare" / name
     paths = save_comparison(comparison, out, plots=not args.no_plots)
@@ -81,6 +94,13 @@ def _run_scenario(args: argparse.Namespace) -> int:
     print(comparison.table_markdown(), end="")
     print(f"wrote {', '.join(_relative(p, out) for p in paths.values())} in {out}")
     return 0
+
+
+def _without_image_methods(names: tuple[str, ...]) -> tuple[str, ...]:
+    """The default methods of a scenario without a scene: those that do not servo on its image."""
+    from .. import controllers
+
+    return tuple(n for n in names if not controllers.make(n).needs_image)
 
 
 def _run_suite(args: argparse.Namespace) -> int:
@@ -99,7 +119,12 @@ def _run_suite(args: argparse.Namespace) -> int:
         f"normalized monocular camera, four coplanar points, {rate:g} Hz, {duration:g} s per run. "
         "Cell: time to converge (pose within 1 mm and 0.1 deg for good), camera path length; "
         f"otherwise the outcome in bold. † a point left the nominal view (|x| or |y| > "
-        f"{suites.NOMINAL_HALF_VIEW:g}) or went behind the camera.\n\n"
+        f"{suites.NOMINAL_HALF_VIEW:g}) or went behind the camera."
+        + "".join(
+            f" n/a: {n} does not apply ({why})."
+            for n, why in suites.not_applicable(report.controllers).items()
+        )
+        + "\n\n"
     )
     table = report.table_markdown()
     write_text(out / "suite.md", caption + table)

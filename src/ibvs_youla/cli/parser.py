@@ -193,8 +193,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--scenario",
         choices=compare.scenario_names(),
         metavar="NAME",
-        help=f"one of {names}, or a task of the suite: "
-        + ", ".join(compare.scenario_names()[len(_scenarios.NAMES) :]),
+        help=f"one of {names}, a task of the suite: "
+        + ", ".join(compare.scenario_names()[len(_scenarios.NAMES) : -1])
+        + f", or {compare.TEXTURED} (a textured plane, for photometric servoing)",
     )
     which.add_argument("--suite", choices=("gans2003",), help="run every task of the suite: gans2003")
     p.add_argument(
@@ -202,7 +203,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=compare.controller_list,
         metavar="A,B,...",
         help=f"comma-separated, from {', '.join(controllers.names())} (default: every one that can run: "
-        "all on an arm scenario, the camera-twist ones on a suite task)",
+        "all but photometric on an arm scenario, the camera-twist ones but photometric on a suite task, "
+        "the camera-twist ones on the textured plane)",
     )
     p.add_argument(
         "--plant",
@@ -288,7 +290,8 @@ def _add_campaign(sub: Any) -> None:
     p.add_argument(
         "--camera",
         choices=CAMERA_KINDS,
-        help="default: stereo (ZED 2) for an arm family, normalized (F = 1) for a free one",
+        help="default: stereo (ZED 2) for an arm family, normalized (F = 1) for a free one, pinhole "
+        "(120 x 90 px) for free-textured",
     )
     p.add_argument(
         "--duration",

@@ -137,7 +137,7 @@ def run(args: argparse.Namespace, extra: list[str] | None = None) -> int:
     plant = args.plant or FAMILY_DEFAULTS[args.family]["plant"]
     names = args.controllers
     if names is None:
-        names = methods_for_plant(plant)
+        names = methods_for_plant(plant, args.family)
     params = {}
     if args.feedforward == "smooth":
         if "ff+fb" not in names:

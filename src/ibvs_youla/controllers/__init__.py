@@ -12,12 +12,13 @@ servoing (Malis, Chaumette & Boudet 1999), hybrid switched IBVS/PBVS (Gans & Hut
 2007) and MPC-IBVS (a QP per frame through qpsolvers); and the field's answers to the
 retreat and the local minima of point IBVS: polar-coordinate IBVS (Iwatsuki & Okiyama 2005)
 XY/Z-partitioned IBVS (Corke & Hutchinson 2001) and image-moment IBVS (Tahri & Chaumette
-2005).
+2005); and photometric visual servoing (Collewet & Marchand 2011: the luminance of every pixel,
+on a scenario with a textured scene).
 
 >>> from ibvs_youla import controllers
 >>> controllers.names()  # doctest: +NORMALIZE_WHITESPACE
 ('fb', 'ff+fb', 'ibvs-current', 'ibvs-desired', 'ibvs-mean', 'pbvs', '2.5d', 'hybrid', 'mpc-ibvs',
- 'ibvs-polar', 'ibvs-partitioned', 'ibvs-moments')
+ 'ibvs-polar', 'ibvs-partitioned', 'ibvs-moments', 'photometric')
 >>> controllers.make("ff+fb", adaptive=False).command_type.value
 'joint_position'
 """
@@ -143,7 +144,17 @@ register(
 
 
 # The modules of the methods the paper compares itself with, in registration order.
-_BASELINES = ("ibvs", "pbvs", "two_half_d", "hybrid", "mpc_ibvs", "polar", "partitioned", "moments")
+_BASELINES = (
+    "ibvs",
+    "pbvs",
+    "two_half_d",
+    "hybrid",
+    "mpc_ibvs",
+    "polar",
+    "partitioned",
+    "moments",
+    "photometric",
+)
 
 
 def _register_baselines() -> None:

@@ -256,7 +256,8 @@ def simulate(
         )
     truth = MarkerSensor(camera, scenario.markers, virtual_points=scenario.virtual_points)
     chosen = _sensor(sensor, truth)
-    measuring = disturbances.wrap_sensor(chosen, noise_rng, dropout_rng)
+    scene = _scene_for(ctrl, scenario)
+    measuring = disturbances.wrap_sensor(chosen, noise_rng, dropout_rng, scene=scene)
     beliefs.check_against(scenario, camera, world.arm is not None)
     if beliefs.arm is not None and not beliefs.arm.mount.is_eye_to_hand:  # the scenario's mount
         beliefs = Beliefs(mounted(beliefs.arm, scenario.mount), beliefs.camera, beliefs.markers_O)
@@ -296,6 +297,9 @@ def simulate(
         q_target=scenario.q_target if joints else None,
         # what the controller believes: its arm at the encoder reading (it cannot see an offset)
         T_O_C_start=model_arm.camera_pose(scenario.q_start) if joints else world.T_O_C_start,
+        # a controller that servoes on the image: the scene as it is, the image taught at the target
+        scene=scene,
+        image_target=None if scene is None else measuring.image_at(world.T_O_C_target),
     )
     ctrl.reset(task)
     record_every = settings.record_every
@@ -354,6 +358,25 @@ def simulate(
             return result
     recorder.metadata["loop"] = "plug-in"  # the roles' loop; also where the compiled one declined
     return ServoLoop(*roles, recorder, command_signals).run(progress, label)
+
+
+def _scene_for(ctrl: Controller, scenario: Scenario) -> Any:
+    """The scene a controller that servoes on the image sees (None for the others).
+
+    Raises:
+        InvalidParameterError: such a controller on a scenario without a scene.
+    """
+    if not getattr(ctrl, "needs_image", False):
+        return None
+    if scenario.scene is None:
+        raise InvalidParameterError(
+            "scenario",
+            f"{scenario.name!r} (point markers, no scene)",
+            f"a scenario with a scene for {ctrl.name!r}, which servoes on the image of a textured "
+            "plane, not on points: e.g. scenarios.textured_plane(), or Scenario(..., "
+            "scene=TexturedPlane(...))",
+        )
+    return scenario.scene
 
 
 def _sensor(sensor: Any, truth: MarkerSensor) -> Any:

@@ -212,7 +212,8 @@ def test_the_eye_to_hand_calibration_recovers_the_camera_pose(views):
 # -------------------------------------------------------------------------------------------- scenarios
 def test_the_scenario_makers_give_every_robot_a_tool_in_view(arms):
     camera = default_camera()
-    for name, arm in arms.items():
+    every = {name: arms[name] if name in arms else iy.Arm.from_robot(name) for name in iy.robots.names()}
+    for name, arm in every.items():
         eih, eth = iy.scenarios.mount_pair(arm, seed=2)
         np.testing.assert_array_equal(eih.q_start, eth.q_start)  # one draw, both mountings
         np.testing.assert_array_equal(eih.q_target, eth.q_target)

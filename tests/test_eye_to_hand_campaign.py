@@ -12,8 +12,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ibvs_youla import cli
 from ibvs_youla.campaign.cases import MOUNT_STEP_DEG, generate_cases
 from ibvs_youla.campaign.definition import CampaignDefinition
+from ibvs_youla.campaign.report import read_rows
 from ibvs_youla.campaign.run import run_spec
 from ibvs_youla.campaign.spec import ExperimentSpec, specs_for
 from ibvs_youla.exceptions import InvalidParameterError
@@ -71,3 +73,24 @@ def test_the_mount_families_run_on_an_arm_plant_only():
     assert definition.camera == {"kind": "stereo"} and len(definition.specs()) == 4
     with pytest.raises(InvalidParameterError, match="plant"):
         CampaignDefinition("arm-eye-to-hand", 1, ("pbvs",), plant="free-camera")
+
+
+def test_the_command_line_runs_an_eye_to_hand_campaign(tmp_path):
+    """``ibvs-youla campaign --family arm-eye-to-hand``: the family is a choice of the command line."""
+    out = tmp_path / "e2h"
+    args = ["campaign", "--family", "arm-eye-to-hand", "--cases", "1", "--controllers", "ibvs-current"]
+    args += [
+        "--plant",
+        "kinematic",
+        "--duration",
+        "0.2",
+        "--workers",
+        "0",
+        "--out",
+        str(out),
+        "--no-progress",
+    ]
+    assert cli.main(args) == 0
+    rows = read_rows(out)
+    assert list(rows["family"]) == ["arm-eye-to-hand"] and rows["status"].iloc[0] == "complete"
+    assert '"mount":{"T_O_C"' in rows["spec"].iloc[0]  # the mount is in the stored spec

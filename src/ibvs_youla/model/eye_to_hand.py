@@ -100,6 +100,12 @@ class EyeToHandArm(Arm):
         self._cMo = self._oMc.inverse()
         self.name = f"{arm.name} (eye-to-hand)"
 
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickle as :meth:`Arm.__setstate__`, the camera pose read-only again."""
+        super().__setstate__(state)
+        if "T_O_C" in state:  # not yet while __init__ copies the arm's state
+            self.T_O_C.setflags(write=False)
+
     @property
     def mount(self) -> Mount:
         """The eye-to-hand mount: the fixed camera's pose and the markers' carrier frame."""

@@ -308,7 +308,7 @@ def test_the_compiled_frame_path_covers_eye_to_hand_to_1e_12(case):
             (compiled.frame_features, plugged.frame_features),
             *((compiled.signals[k], plugged.signals[k]) for k in plugged.signals),
         ]:
-            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)  # measured 0 (the same kernels in q)
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)  # measured <= 1.7e-15
         assert np.abs(plugged.q_true[-1] - plugged.q_true[0]).max() > 1e-3  # the arm moved [rad]
 
 

@@ -293,6 +293,26 @@ def campaign(r: Report) -> str:
     )
 
 
+def cli(r: Report) -> str:
+    """The command line's answers without a simulation: median and 95th percentile of each call."""
+    rows = ["| call | median [ms] | p95 [ms] |", "| --- | ---: | ---: |"]
+    for c in r["calls"].values():
+        rows.append(
+            f"| `ibvs-youla {' '.join(c['argv'])}` | {_num(c['median_ms'], 0)} | {_num(c['p95_ms'], 0)} |"
+        )
+    labels = {
+        "interpreter": "reference: `python -c pass` (the interpreter's start)",
+        "eager_imports": "reference: importing what the parser imported before it was light",
+    }
+    for name, c in r["reference"].items():
+        rows.append(f"| {labels.get(name, name)} | {_num(c['median_ms'], 0)} | {_num(c['p95_ms'], 0)} |")
+    return (
+        "\n".join(rows)
+        + f"\n\nEach call a new process ({r['settings']['command']}), {r['settings']['repeats']} rounds. "
+        f"Measured {_when(r)}.\n"
+    )
+
+
 def _minutes(date: str | None) -> float | None:
     """Minutes since the epoch of an ISO date, or None."""
     import datetime
@@ -359,6 +379,7 @@ def targets(reports: dict[str, Report | None]) -> str:
 
     rows = ["| target | measured | | when, machine load |", "| --- | --- | --- | --- |"]
     outer, sim, camp = reports.get("outer_loop"), reports.get("simulation"), reports.get("campaign")
+    cli_ = reports.get("cli")
     if outer is not None:
         rows.append(
             f"| adaptive outer update <= 2.5x its floor | {_num(outer['ratio_to_floor'], 2)}x "
@@ -421,6 +442,12 @@ def targets(reports: dict[str, Report | None]) -> str:
                 f"{_num(p['arm_1000x7_minutes']['2'])} min | {_met(p['arm_1000x7_minutes']['2'] < 30.0)} | "
                 f"{load(camp)} |"
             )
+    if cli_ is not None:
+        slowest = cli_["slowest"]
+        rows.append(
+            f"| every `ibvs-youla` help and argument error answers in < 0.5 s | slowest `{slowest['call']}` "
+            f"{_num(slowest['median_ms'], 0)} ms | {_met(slowest['median_ms'] < 500.0)} | {load(cli_)} |"
+        )
     return "\n".join(rows) + "\n"
 
 
@@ -430,6 +457,7 @@ TABLES: dict[str, tuple[str, Callable[[Report], str]]] = {
     "controllers": ("controllers", controllers),
     "peers": ("peers", peers),
     "campaign": ("campaign", campaign),
+    "cli": ("cli", cli),
 }
 
 

@@ -168,6 +168,22 @@ def test_controllers_benchmark_reference_law_is_classical_ibvs():
     assert np.linalg.norm(expected) > 1e-3  # a non-trivial twist
 
 
+def test_cli_benchmark_writes_every_call_and_its_table(tmp_path):
+    out = tmp_path / "cli.json"
+    report = load("bench_cli").main(["--repeats", "1", "--no-eager", "--json", str(out)])
+    saved = json.loads(out.read_text())
+    bench = load("bench_cli")
+    assert set(saved["calls"]) == set(bench.CALLS) and set(saved["reference"]) == {"interpreter"}
+    for call in saved["calls"].values():
+        assert finite_positive(call["median_ms"]) and call["n"] == 1
+    slowest = max(saved["calls"].values(), key=lambda c: c["median_ms"])
+    assert saved["slowest"]["median_ms"] == slowest["median_ms"]
+    assert saved["targets"]["met"] is (slowest["median_ms"] < 500.0)  # the verdict follows the figure
+    assert report["ratio_eager_to_help"] is None and len(saved["history"]) == 1
+    table = load("figures").cli(saved)
+    assert "`ibvs-youla simulate --scenaro paper-1`" in table and "python -c pass" in table
+
+
 @pytest.mark.slow
 def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
     out = tmp_path / "campaign.json"

@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 
 import ibvs_youla as iy
 from ibvs_youla.analysis import suites
-from ibvs_youla.analysis.compare import compare, time_to_converge
+from ibvs_youla.analysis.compare import CONVERGED_MM, compare, time_to_converge
 from ibvs_youla.analysis.comparison_figures import COMPARISON_FIGURES, plot_comparison
 from ibvs_youla.exceptions import InvalidParameterError, SimulationDivergedError
 from test_cli import one_error_line, run
@@ -210,6 +210,43 @@ def test_time_to_converge_is_inf_for_a_run_that_ends_outside():
     )
 
 
+CONVERGED_M = 1e-3 * CONVERGED_MM  # the end point's tolerance [m]
+
+
+def _general(names, duration):
+    task = suites.task("gans-general")
+    settings = iy.SimulationSettings(joint_rate_hz=25.0, camera_rate_hz=25.0)
+    camera = iy.PinholeCamera.normalized()
+    return compare(
+        task.scenario(), names, plant="free-camera", camera=camera, duration=duration, settings=settings
+    )
+
+
+def test_the_path_ratio_is_given_for_a_converged_run_and_is_then_at_least_one():
+    short, full = _general(["pbvs"], 2.0).row("pbvs"), _general(["pbvs"], 30.0).row("pbvs")
+    assert short.outcome == "not converged" and short.straight_line_m > 0.1
+    assert short.path_length_m < short.straight_line_m  # a ratio below 1: it stopped short, no detour
+    assert short.path_ratio is None
+    assert full.outcome == "converged" and full.path_ratio == pytest.approx(1.0, abs=1e-3)
+    assert full.path_ratio >= 1.0 - CONVERGED_M / full.straight_line_m
+
+
+def test_the_image_panels_share_one_scale_and_say_when_a_path_leaves_it():
+    """The general motion: ibvs-desired sends the points to |x| = 13.8, the others stay within 0.5."""
+    comparison = _general(["ibvs-current", "ibvs-desired", "pbvs"], 30.0)
+    panels = [ax for ax in plot_comparison(comparison)["image_plane"].axes if ax.get_visible()]
+    assert len(panels) == 3
+    limits = {(ax.get_xlim(), ax.get_ylim()) for ax in panels}
+    assert len(limits) == 1  # one scale
+    ((x_lim, y_lim),) = limits
+    assert y_lim[0] > y_lim[1]  # v down
+    assert x_lim[1] - x_lim[0] == pytest.approx(y_lim[0] - y_lim[1])  # a square view
+    assert x_lim[1] < 2.0  # not stretched to the 13.8 of the one that ran off
+    current, desired, pbvs = panels
+    assert not current.texts and not pbvs.texts
+    assert [t.get_text() for t in desired.texts] == ["leaves the panel: up to |x|, |y| = 13.8"]
+
+
 def test_incompatible_and_rejected_controllers_get_a_row_not_a_crash(capsys, tmp_path):
     """fb commands joint positions: no arm on the free camera. On the kinematic arm, MPC-IBVS refuses
     paper-2, whose virtual target features lie outside its image box (ERRATA 13)."""
@@ -294,7 +331,10 @@ def test_a_diverged_run_is_measured_on_its_partial_record(monkeypatch):
         (("--suite", "gans2004"), ["'gans2004'", "'gans2003'"]),
         ((), ["one of the arguments --scenario --suite is required"]),
         (("--scenario", "paper-1", "--suite", "gans2003"), ["not allowed with"]),
-        (("--suite", "gans2003", "--plant", "dynamic"), ["--suite runs on the free camera", "dynamic"]),
+        (
+            ("--suite", "gans2003", "--plant", "dynamic"),
+            ["--suite gans2003 runs on the free camera", "dynamic"],
+        ),
         (("--scenario", "paper-1", "--camera-rate", "0"), ["--camera-rate", "'0'"]),
     ],
 )
@@ -306,12 +346,12 @@ def test_bad_arguments_exit_2_with_one_line(capsys, argv, fragments):
         assert fragment in line
 
 
-def test_a_suite_task_on_an_arm_plant_exits_1_with_one_line(capsys, tmp_path):
+def test_a_suite_task_on_an_arm_plant_exits_2_with_one_line(capsys, tmp_path):
     code, _, err = run(
-        capsys, "compare", "--scenario", "gans-rz-30", "--plant", "dynamic", "--out", str(tmp_path)
+        capsys, "compare", "--scenario", "gans-rz-30", "--plant", "dynamic", "--out", str(tmp_path / "out")
     )
-    assert code == 1
-    assert "plant: received 'dynamic'" in one_error_line(err) and "'free-camera'" in err
+    assert code == 2 and not (tmp_path / "out").exists()
+    assert "--plant: received 'dynamic'" in one_error_line(err) and "free-camera" in err
 
 
 # ----------------------------------------------------------------------------- the suite's outcomes

@@ -290,9 +290,11 @@ def test_cli_runs_the_paper_controller_on_the_kinematic_arm(capsys, tmp_path):
                 "--no-plots",
             ]
         )
-        == 1
-    )  # joint commands cannot drive a bare camera
-    assert "'free-camera' plant accepts camera_twist" in capsys.readouterr().err
+        == 2
+    )  # joint commands cannot drive a bare camera: an argument error, refused before anything is written
+    assert not (tmp_path / "f").exists()
+    err = capsys.readouterr().err
+    assert "'free-camera' plant takes camera twists and ff+fb commands joint_position" in err
 
 
 # --------------------------------------------------------------------------- review: beliefs, objects, checks
@@ -412,7 +414,9 @@ def test_declared_signals_keep_their_names_and_shapes():
         iy.simulate(
             free, Scripted(declared=lambda k: {"a": np.zeros(1)} if k == 0 else {"b": np.zeros(1)}), **run
         )
-    with pytest.raises(iy.exceptions.InvalidArrayError, match="signal 'a'"):
+    with pytest.raises(
+        iy.exceptions.InvalidControllerOutputError, match=r"Scripted\.signals\(\).*'a' of shape \(2,\)"
+    ):
         iy.simulate(free, Scripted(declared=lambda k: {"a": np.zeros(1 if k == 0 else 2)}), **run)
     with pytest.raises(InvalidParameterError, match="names other than"):
         iy.simulate(free, Scripted(declared=lambda k: {"camera_twist": np.zeros(6)}), **run)

@@ -49,7 +49,11 @@ Families (:data:`FAMILIES`):
   included (it needs the scene, and a camera with pixels: the family's ``{"kind": "pinhole"}``).
 
 The difficulty of a case is reported with it: the rotation angle [deg] and the distance [m]
-between the start and target camera poses.
+between the start and target camera poses. The knob goes up to :data:`MAX_DIFFICULTY` = 100:
+the joint steps cover every joint's range from 12 on (12 x 30 deg), the free rotations every
+rotation from 2 on and the free-roll turn is capped at 180 deg; beyond 100 only the free
+camera's distance still grows (30 m at 100, 40 times the target's 0.75 m), toward draws that
+overflow. A draw that is not finite is rejected like any other that breaks the rules.
 """
 
 from __future__ import annotations
@@ -62,15 +66,18 @@ import numpy as np
 
 from .._memory import fits_in_memory
 from .._reproducible import matmul, norm3
-from .._validation import one_of, positive
+from .._validation import integer, one_of, real
+from ..catalog import ARM_FAMILIES, FAMILIES, MOUNT_FAMILIES
 from ..exceptions import InvalidParameterError
 
 __all__ = [
     "FAMILIES",
     "LIMIT_MARGIN",
+    "MAX_DIFFICULTY",
     "MAX_JOINT_STEP_DEG",
     "MAX_ROLL_DEG",
     "MAX_ROTATION_DEG",
+    "MAX_SEED",
     "MAX_TRANSLATION_M",
     "MIN_JACOBIAN_SIGMA",
     "MIN_ROLL_DEG",
@@ -85,18 +92,6 @@ __all__ = [
     "generate_cases",
 ]
 
-FAMILIES = (
-    "arm-physical",
-    "arm-virtual",
-    "free-planar",
-    "free-nonplanar",
-    "free-roll",
-    "free-textured",
-    "arm-eye-in-hand",
-    "arm-eye-to-hand",
-)
-MOUNT_FAMILIES = ("arm-eye-in-hand", "arm-eye-to-hand")  # matched: case k is one draw in both
-ARM_FAMILIES = ("arm-physical", "arm-virtual", *MOUNT_FAMILIES)
 SCENE_FAMILIES = ("free-textured",)  # their scenarios carry a scene (a textured plane)
 LIMIT_MARGIN = 0.1  # of each joint's range, kept clear at both ends
 WRIST_MARGIN_DEG = 10.0  # |q5| >= this [deg]
@@ -111,6 +106,8 @@ ROLL_TRANSLATION_M = 0.05  # free-roll, at difficulty 1 [m]
 TEXTURED_ROTATION_DEG = 5.0  # free-textured: about a random axis, at difficulty 1 [deg]
 TEXTURED_TRANSLATION_M = 0.05  # free-textured, at difficulty 1 [m]
 MAX_DRAWS = 200  # rejection sampling gives up after this many draws of one case
+MAX_DIFFICULTY = 100.0  # the difficulty knob's upper end (module docstring)
+MAX_SEED = 2**63 - 1  # a seed is stored in an int64 column
 SQUARE_O = np.array([[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]])  # [m]
 OFF_PLANE_O = np.array([[0.0, 0.05, 0.1], [0.05, -0.05, -0.1]])  # [m], the non-planar extras
 
@@ -155,14 +152,14 @@ def generate_cases(family: str, n: int, seed: int, *, difficulty: float = 1.0) -
     """``n`` cases of ``family`` from ``seed`` (module docstring).
 
     Raises:
-        InvalidParameterError: an unknown family, ``n`` < 1, a seed that is not an integer >= 0,
-            a difficulty <= 0, or a case the rules reject :data:`MAX_DRAWS` times.
+        InvalidParameterError: an unknown family, ``n`` < 1, a seed that is not an integer in
+            [0, :data:`MAX_SEED`], a difficulty outside (0, :data:`MAX_DIFFICULTY`], or a case
+            the rules reject :data:`MAX_DRAWS` times.
     """
     one_of(family, "family", FAMILIES)
-    for name, value, low in (("n", n, 1), ("seed", seed, 0)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-            raise InvalidParameterError(name, value, f"an integer >= {low}")
-    difficulty = positive(difficulty, "difficulty")
+    integer(n, "n", low=1)
+    integer(seed, "seed", low=0, high=MAX_SEED)
+    difficulty = real(difficulty, "difficulty", low=0.0, low_open=True, high=MAX_DIFFICULTY)
     fits_in_memory(4096.0 * n, "n", n, "fewer cases")  # a case holds its scenario and seed, ~4 kB
     streams = np.random.SeedSequence(int(seed)).spawn(int(n))
     if family in MOUNT_FAMILIES:
@@ -321,7 +318,7 @@ def _free_case(family: str, index: int, rng: np.random.Generator, difficulty: fl
         delta = _roll_offset(rng, difficulty) if family == "free-roll" else _free_offset(rng, difficulty)
         T_start = matmul(T_target, delta)
         P_C = matmul(points - T_start[:3, 3], T_start[:3, :3])
-        if P_C[:, 2].min() < 0.1 or np.abs(P_C[:, :2] / P_C[:, 2:]).max() > 1.0:
+        if not (P_C[:, 2].min() >= 0.1 and np.abs(P_C[:, :2] / P_C[:, 2:]).max() <= 1.0):  # NaN fails
             continue
         scenario = {
             "T_O_C_start": T_start,

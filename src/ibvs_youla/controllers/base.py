@@ -22,7 +22,8 @@ that contract, so a controller depends on nothing in the simulation:
 A controller is called twice per cycle: :meth:`Controller.update` at camera rate with a
 frame (the image-based part), then :meth:`Controller.command` at every tick (joint rate
 on an arm, camera rate on the free-flying camera), whose value is held until the next
-tick (zero-order hold).
+tick (zero-order hold). The arrays of the frames and readings it is given are its own copies:
+what it writes into them changes neither the recorded measurements nor the plant.
 """
 
 from __future__ import annotations

@@ -31,21 +31,24 @@ import numpy as np
 
 from .._memory import fits_in_memory
 from .._validation import flag, one_of, positive
+from ..catalog import PLANTS
 from ..controllers import Controller, ServoTask, YoulaSettings, make, names, uses_youla_settings
 from ..controllers.base import CommandType
 from ..estimation.stereo_pose import check_marker_geometry
-from ..exceptions import InvalidParameterError
+from ..exceptions import IbvsYoulaError, InvalidControllerOutputError, InvalidParameterError
 from ..model.arm import Arm
 from ..model.camera import PinholeCamera, StereoCamera, default_camera
 from ..model.eye_to_hand import mounted
 from ..scenarios import Scenario
 from .actuation import actuation_chain
 from .compiled_loop import CompiledLoop
+from .controller_checks import checked_signals, checked_spec, command_type_of, controller_name, failed
 from .disturbances import Disturbances
 from .free_camera import FreeCameraPlant
 from .kinematic_arm import KinematicArmPlant
 from .loop import ServoLoop
 from .plant import ArmPlant
+from .progress import announces_compiles
 from .recorder import ResultRecorder
 from .results import SimulationResult, software_versions
 from .sensor import MarkerSensor
@@ -53,7 +56,6 @@ from .settings import SimulationSettings
 
 __all__ = ["PLANTS", "SENSORS", "Beliefs", "default_camera", "simulate"]
 
-PLANTS = ("dynamic", "kinematic", "free-camera")
 LOOPS = ("auto", "plug-in")
 SENSORS = ("ideal", "depth", "images")
 
@@ -136,6 +138,7 @@ class Beliefs:
         }
 
 
+@announces_compiles
 def simulate(
     scenario: Scenario,
     controller: str | Controller = "ff+fb",
@@ -189,7 +192,8 @@ def simulate(
         disturbances: Pixel noise, dropouts, calibration errors (on top of ``beliefs``), model
             mismatch, latency, actuator limits (:class:`~.disturbances.Disturbances`); each
             wraps a role built here, and ``None`` or all-off wraps nothing.
-        progress: Show a progress bar (tqdm) on stderr.
+        progress: Show a progress bar (tqdm) on stderr, and one line while Numba compiles the
+            kernels the first time (:mod:`~ibvs_youla.simulation.progress`).
         loop: ``"auto"``: the compiled frame path (:mod:`.compiled_loop`: one compiled call per
             frame, the same result to rounding) when every role is the library's own and one it
             covers (classical IBVS, the ideal sensor with or without depth, the free camera or
@@ -217,8 +221,12 @@ def simulate(
             camera pose from which no marker is visible at the start.
         IncompatibleCommandError: the controller's command cannot drive the plant.
         JointLimitError: the scenario's configurations are outside the arm's limits.
-        SimulationDivergedError: a state left its bounds; ``error.partial`` holds the
-            samples recorded until then.
+        ControllerError: a controller object's method raised (``reset``, ``spec``, ``update``,
+            ``command``, ``signals``) or returned what the loop cannot use
+            (:class:`~ibvs_youla.exceptions.InvalidControllerOutputError`); ``error.partial``
+            holds the samples recorded until then (None before the first tick).
+        SimulationDivergedError: a state left its bounds (a finite but huge command too);
+            ``error.partial`` holds the samples recorded until then.
     """
     duration = positive(duration, "duration", unit="s")
     one_of(plant, "plant", PLANTS)
@@ -268,10 +276,11 @@ def simulate(
         model_arm = world.arm if beliefs.arm is None else beliefs.arm
         if settings.model_inertia_scale != 1.0:
             model_arm = model_arm.with_inertia_scale(settings.model_inertia_scale)
+    command_type = command_type_of(ctrl)
     if settings.secondary_task is not None:
-        _check_secondary_task(settings, ctrl, model_arm)
+        _check_secondary_task(settings, ctrl, model_arm, command_type)
     chain = actuation_chain(
-        ctrl.command_type,
+        command_type,
         world.plant,
         arm=model_arm,
         q_start=scenario.q_start,
@@ -301,26 +310,31 @@ def simulate(
         scene=scene,
         image_target=None if scene is None else measuring.image_at(world.T_O_C_target),
     )
-    ctrl.reset(task)
+    try:
+        ctrl.reset(task)
+    except IbvsYoulaError:  # a typed refusal of the task (e.g. the paper's controller, a monocular camera)
+        raise
+    except Exception as err:  # a user's bug: typed, named, chained
+        raise failed(ctrl, "reset", 0.0, err) from err
     record_every = settings.record_every
-    command_signals = (ctrl.command_type.signal, *(a.output_type.signal for a in chain))
-    declared = ctrl.signals()
-    if not isinstance(declared, dict):
-        raise InvalidParameterError(
-            f"{type(ctrl).__name__}.signals()",
-            type(declared).__name__,
-            "a dict name -> array of a fixed shape",
-        )
+    command_signals = (command_type.signal, *(a.output_type.signal for a in chain))
+    try:
+        declared = ctrl.signals()
+    except Exception as err:
+        raise failed(ctrl, "signals", 0.0, err) from err
+    declared_shapes = {name: np.shape(value) for name, value in checked_signals(ctrl, declared, 0.0).items()}
     n_joints = getattr(world.plant, "n_joints", 0)
     shapes = {
         **{name: (n_joints,) for name in world.plant.signal_names},
         **{name: (6,) if name == "camera_twist" else (n_joints,) for name in command_signals},
-        **{str(name): np.shape(value) for name, value in declared.items()},
+        **declared_shapes,
     }
-    if len(shapes) != len(world.plant.signal_names) + len(command_signals) + len(declared):
-        raise InvalidParameterError(
-            f"{type(ctrl).__name__}.signals()",
-            sorted(declared),
+    if len(shapes) != len(world.plant.signal_names) + len(command_signals) + len(declared_shapes):
+        raise InvalidControllerOutputError(
+            controller_name(ctrl),
+            "signals",
+            0.0,
+            f"the names {list(declared_shapes)}",
             f"names other than the plant's and the commands' "
             f"({', '.join((*world.plant.signal_names, *command_signals))})",
         )
@@ -357,7 +371,7 @@ def simulate(
         if result is not None:
             return result
     recorder.metadata["loop"] = "plug-in"  # the roles' loop; also where the compiled one declined
-    return ServoLoop(*roles, recorder, command_signals).run(progress, label)
+    return ServoLoop(*roles, recorder, command_signals, command_type, declared_shapes).run(progress, label)
 
 
 def _scene_for(ctrl: Controller, scenario: Scenario) -> Any:
@@ -432,11 +446,7 @@ def _controller(controller: Any, adaptive: bool, settings: SimulationSettings) -
             type(controller).__name__,
             "a registered name (" + ", ".join(repr(n) for n in names()) + ") or an iy.controllers.Controller",
         )
-    if not hasattr(controller, "command_type"):
-        raise InvalidParameterError(
-            f"{type(controller).__name__}.command_type", None, " or ".join(c.value for c in CommandType)
-        )
-    CommandType.parse(controller.command_type)
+    command_type_of(controller)  # a CommandType or its string value, else an error naming the controller
     if not adaptive:
         raise InvalidParameterError(
             "adaptive", adaptive, "True when the controller is an object (it carries its own options)"
@@ -445,7 +455,9 @@ def _controller(controller: Any, adaptive: bool, settings: SimulationSettings) -
     return controller
 
 
-def _check_secondary_task(settings: SimulationSettings, ctrl: Controller, arm: Arm | None) -> None:
+def _check_secondary_task(
+    settings: SimulationSettings, ctrl: Controller, arm: Arm | None, command_type: CommandType
+) -> None:
     """A secondary task needs a redundant arm and a controller whose camera twist the actuation converts."""
     task = settings.secondary_task.to_dict()  # type: ignore[union-attr]
     if arm is None or not arm.redundant:
@@ -456,11 +468,11 @@ def _check_secondary_task(settings: SimulationSettings, ctrl: Controller, arm: A
             f"None on {where}: a secondary task acts in the null space of J_C, which needs more than "
             "six joints",
         )
-    if CommandType.parse(ctrl.command_type) is not CommandType.CAMERA_TWIST:
+    if command_type is not CommandType.CAMERA_TWIST:
         raise InvalidParameterError(
             "settings.secondary_task",
             task,
-            f"None for {ctrl.name!r}, which commands {CommandType.parse(ctrl.command_type).value}: the task "
+            f"None for {ctrl.name!r}, which commands {command_type.value}: the task "
             "is added where a camera twist becomes joint velocities (the twist-commanding methods)",
         )
 
@@ -633,7 +645,7 @@ def _metadata(
     beliefs: Beliefs,
     n_ticks: int,
 ) -> dict[str, Any]:
-    spec = ctrl.spec()
+    spec = checked_spec(ctrl)
     joints = scenario.has_joints
     metadata: dict[str, Any] = {
         "scenario": scenario.name,

@@ -25,12 +25,13 @@ independent streams of ``numpy.random.SeedSequence(seed)``.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
 
-from ..._validation import non_negative, positive
+from ..._validation import keywords_checked, non_negative, positive
 from ...exceptions import InvalidParameterError
 
 __all__ = ["Disturbances"]
@@ -91,6 +92,7 @@ def _friction(value: Any, name: str, unit: str) -> float | tuple[float, ...]:
     return tuple(float(v) for v in arr)
 
 
+@keywords_checked
 @dataclass(frozen=True)
 class Disturbances:
     """Disturbances of one run (module docstring); every default is "off".
@@ -237,13 +239,18 @@ class Disturbances:
         return out
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> Disturbances:
+    def from_dict(cls, data: Mapping[str, Any]) -> Disturbances:
         """The disturbances of :meth:`to_dict` (or any subset of the fields).
 
         Raises:
-            InvalidParameterError: an unknown field (the message lists the valid ones).
+            InvalidParameterError: not a mapping, or an unknown field (the message lists the
+                valid ones).
         """
         names = {f.name for f in fields(cls)}
+        if not isinstance(data, Mapping):
+            raise InvalidParameterError(
+                "disturbances", type(data).__name__, "a mapping of fields among " + ", ".join(sorted(names))
+            )
         unknown = sorted(set(data) - names)
         if unknown:
             raise InvalidParameterError("disturbances", unknown, "fields among " + ", ".join(sorted(names)))

@@ -20,6 +20,7 @@ __all__ = [
     "CONTROLLERS",
     "FAMILIES",
     "MAP_AXES",
+    "MOUNT_FAMILIES",
     "PLANTS",
     "ROBUSTNESS_AXES",
     "SCENARIOS",
@@ -38,8 +39,13 @@ FAMILIES: tuple[str, ...] = (
     "free-nonplanar",
     "free-roll",
     "free-textured",
+    "arm-eye-in-hand",
+    "arm-eye-to-hand",
 )
-ARM_FAMILIES: tuple[str, ...] = ("arm-physical", "arm-virtual")  # the case families of an arm plant
+# matched: case k of both mount families is one draw, eye-in-hand and eye-to-hand
+MOUNT_FAMILIES: tuple[str, ...] = ("arm-eye-in-hand", "arm-eye-to-hand")
+# the case families of an arm plant
+ARM_FAMILIES: tuple[str, ...] = ("arm-physical", "arm-virtual", *MOUNT_FAMILIES)
 
 # Names of registries that hold objects (each checked against its registry by the tests).
 CONTROLLERS: tuple[str, ...] = (  # ibvs_youla.controllers.names(), as the package registers them

@@ -47,8 +47,12 @@ from ._reproducible import matmul
 from ._validation import as_array, as_pose, one_of
 from .estimation.stereo_pose import check_marker_geometry
 from .exceptions import InvalidArrayError, InvalidParameterError, JointLimitError
+from .model.mount import EYE_IN_HAND, EYE_TO_HAND, Mount
 
 __all__ = [
+    "EYE_TO_HAND_DEPTHS",
+    "EYE_TO_HAND_RAYS_XY",
+    "EYE_TO_HAND_STANDOFF",
     "FOR_ARM_DEPTHS",
     "FOR_ARM_MIN_SIGMA",
     "NAMES",
@@ -56,8 +60,11 @@ __all__ = [
     "TEXTURED_DEPTH_M",
     "TEXTURED_START",
     "Scenario",
+    "eye_to_hand",
+    "fixed_camera_pose",
     "for_arm",
     "get",
+    "mount_pair",
     "paper",
     "paper_scenarios",
     "physical",
@@ -104,7 +111,7 @@ class Scenario:
             arm's joints, or ``None`` without an arm.
         q_target: True joint angles of the target camera pose (n,) [rad], or ``None``.
         markers_O: Marker positions in the base frame, one per row (n, 3), n >= 3 [m]
-            (the paper uses three; a monocular camera needs four or more).
+            (the paper uses three; a monocular camera needs four or more); ``None`` eye-to-hand.
         joint_offset: Disturbance ``d`` (n,) [rad]: true angles = encoder + d (ERRATA 14);
             ``None`` is stored as zeros.
         name: Short identifier, e.g. ``"paper-1"``.
@@ -115,14 +122,23 @@ class Scenario:
         scene: What the camera images besides the markers: a
             :class:`~ibvs_youla.model.textured_plane.TexturedPlane` for the methods that servo on
             the image (``photometric``), or ``None`` (the markers alone, as the paper's scenarios);
-            the plain data of ``TexturedPlane.to_dict()`` is accepted and rebuilt.
+            the plain data of ``TexturedPlane.to_dict()`` is accepted and rebuilt. Eye-to-hand
+            the plane rides on the tool: its ``T_O_P`` is its pose in the carrier frame {E}.
+        markers_E: Eye-to-hand: the markers (n, 3) in the frame of the arm that carries them
+            (``mount.carrier_frame``, default the flange {E}) [m]; ``None`` eye-in-hand.
+        mount: The camera's mounting (:class:`~ibvs_youla.model.mount.Mount`): ``None`` (or
+            an eye-in-hand mount, stored as ``None``) for the camera on the arm and markers
+            fixed in the base (``markers_O``); an eye-to-hand mount for a camera fixed at
+            ``mount.T_O_C`` watching the markers ``markers_E`` carried by the arm.
 
     Raises:
         InvalidArrayError: wrong shape or non-finite entries.
         DegenerateMarkersError: coincident or collinear markers.
         InvalidParameterError: neither joints nor camera poses (or both), ``name`` or
             ``description`` not strings, ``virtual_points`` not bool, a scene that is not a
-            TexturedPlane.
+            TexturedPlane, ``mount`` not a Mount,
+            markers in the wrong frame for the mounting (``markers_O`` eye-to-hand,
+            ``markers_E`` eye-in-hand), an eye-to-hand mounting of a free-camera scenario.
     """
 
     q_start: np.ndarray | None = None
@@ -135,9 +151,12 @@ class Scenario:
     T_O_C_start: np.ndarray | None = None
     T_O_C_target: np.ndarray | None = None
     scene: Any = None
+    markers_E: np.ndarray | None = None
+    mount: Mount | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
+        self._check_mount()
         joints = (self.q_start is not None, self.q_target is not None)
         poses = (self.T_O_C_start is not None, self.T_O_C_target is not None)
         if joints == (True, True) and poses == (False, False):
@@ -160,9 +179,10 @@ class Scenario:
         n = 6 if self.q_start is None else self.q_start.shape[0]
         offset = np.zeros(n) if self.joint_offset is None else self.joint_offset
         set_(self, "joint_offset", _frozen(as_array(offset, "joint_offset", (n,))))
-        if self.markers_O is None:
-            raise InvalidParameterError("markers_O", None, "marker positions (n, 3), n >= 3 [m]")
-        set_(self, "markers_O", _frozen(check_marker_geometry(self.markers_O, "markers_O")))
+        field_name = "markers_E" if self.mount is not None else "markers_O"
+        if getattr(self, field_name) is None:
+            raise InvalidParameterError(field_name, None, "marker positions (n, 3), n >= 3 [m]")
+        set_(self, field_name, _frozen(check_marker_geometry(getattr(self, field_name), field_name)))
         for field_name in ("name", "description"):
             if not isinstance(getattr(self, field_name), str):
                 raise InvalidParameterError(field_name, getattr(self, field_name), "a string")
@@ -200,6 +220,47 @@ class Scenario:
             scene=scene,
         )
 
+    def _check_mount(self) -> None:
+        """Store an eye-in-hand mount as None; the markers' frame must be the mounting's."""
+        if self.mount is not None and not isinstance(self.mount, Mount):
+            raise InvalidParameterError(
+                "mount", type(self.mount).__name__, "a Mount (Mount.eye_to_hand(T_O_C)) or None (eye-in-hand)"
+            )
+        if self.mount is not None and not self.mount.is_eye_to_hand:
+            object.__setattr__(self, "mount", None)
+        if self.mount is None:
+            if self.markers_E is not None:
+                raise InvalidParameterError(
+                    "markers_E",
+                    "markers given in a frame of the arm for an eye-in-hand scenario (mount None)",
+                    "markers_O (fixed in the base frame) for a camera on the arm, or "
+                    "mount=Mount.eye_to_hand(T_O_C) for markers carried by the arm",
+                )
+            return
+        if self.markers_O is not None:
+            raise InvalidParameterError(
+                "markers_O",
+                "markers given in the base frame for an eye-to-hand mount",
+                "markers_E: the markers in the frame of the arm that carries them "
+                f"({self.mount.carrier_frame or 'the flange'!r}), watched by the fixed camera",
+            )
+        if self.q_start is None and self.q_target is None:
+            raise InvalidParameterError(
+                "mount",
+                self.mount.kind,
+                "None (eye-in-hand) for a free-camera scenario: eye-to-hand needs an arm to carry markers",
+            )
+
+    @property
+    def markers(self) -> np.ndarray:
+        """The markers (n, 3) [m] in the frame they are fixed in: ``markers_O`` (base) or ``markers_E``."""
+        return self.markers_O if self.mount is None else self.markers_E  # type: ignore[return-value]
+
+    @property
+    def is_eye_to_hand(self) -> bool:
+        """True for a camera fixed in the base frame watching markers on the arm."""
+        return self.mount is not None
+
     @property
     def has_joints(self) -> bool:
         """True for an arm scenario (joint configurations given), False for a free-camera one."""
@@ -208,7 +269,7 @@ class Scenario:
     @property
     def n_points(self) -> int:
         """Number of markers n."""
-        return int(self.markers_O.shape[0])  # type: ignore[union-attr]
+        return int(self.markers.shape[0])
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data (lists, strings), e.g. for a result's run specification."""
@@ -223,15 +284,17 @@ class Scenario:
                 out[f.name] = value.tolist()
         if self.scene is not None:  # only then: the data (and campaign keys) of scenes-less scenarios stay
             out["scene"] = self.scene.to_dict()
+        if self.mount is not None:  # an eye-in-hand scenario's data (and a campaign's keys) are unchanged
+            out["mount"] = self.mount.to_dict()
         return out
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Scenario):
             return NotImplemented
-        return self.scene == other.scene and all(
+        return (self.scene, self.mount) == (other.scene, other.mount) and all(
             np.array_equal(getattr(self, f.name), getattr(other, f.name))
             for f in dataclasses.fields(self)
-            if f.name != "scene"
+            if f.name not in ("scene", "mount")
         )
 
     __hash__ = None  # type: ignore[assignment]  # arrays: mutable-looking, not hashable
@@ -419,6 +482,195 @@ def for_arm(
 def _visible(camera: Any, T_O_C: np.ndarray, markers_O: np.ndarray) -> bool:
     P_C = (markers_O - T_O_C[:3, 3]) @ T_O_C[:3, :3]
     return bool(camera.visibility(P_C).all_visible)
+
+
+EYE_TO_HAND_RAYS_XY = ((-0.3, -0.2), (0.28, -0.12), (0.04, 0.25))  # no symmetry axis in the image
+EYE_TO_HAND_DEPTHS = (0.6, 0.7, 0.8)  # [m] along EYE_TO_HAND_RAYS_XY: inside the ZED 2's 0.5-25 m
+EYE_TO_HAND_STANDOFF = 0.05  # [m] the nearest marker's distance from the carrier's origin, towards the camera
+
+
+def fixed_camera_pose(T_O_E: Any, distance: float) -> np.ndarray:
+    """T_O_C (4, 4) of a camera at ``distance`` [m] from the tool, level, facing it and the arm's base axis.
+
+    The camera sits at p_E + distance u, u the horizontal unit vector from the base's z axis out to
+    the tool's origin p_E (the base x axis when the tool is on that axis), and looks back along -u
+    with its image y axis pointing down (-z of the base): a camera standing in front of the arm.
+    """
+    T_O_E = as_pose(T_O_E, "T_O_E")
+    p = T_O_E[:3, 3]
+    radial = np.array([p[0], p[1], 0.0])
+    norm = float(np.hypot(p[0], p[1]))
+    u = radial / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
+    z, y = -u, np.array([0.0, 0.0, -1.0])
+    T = np.eye(4)
+    T[:3, :3] = np.column_stack([np.cross(y, z), y, z])
+    T[:3, 3] = p + distance * u
+    return T
+
+
+def eye_to_hand(
+    arm: Any,
+    seed: Any = 0,
+    *,
+    q_center: Any = None,
+    spread_deg: float = 10.0,
+    step_deg: float = 5.0,
+    depths: Any = EYE_TO_HAND_DEPTHS,
+    rays_xy: Any = EYE_TO_HAND_RAYS_XY,
+    joint_offset_deg: float = 0.0,
+    camera: Any = None,
+    carrier_frame: str | None = None,
+    name: str | None = None,
+) -> Scenario:
+    """A seeded eye-to-hand scenario for any arm: a fixed camera watching markers on its tool.
+
+    The joints are drawn as :func:`for_arm` draws them (the target within +-``spread_deg`` of
+    ``q_center``, default the robot's home configuration; the start +-``step_deg`` from it). The
+    camera is fixed where the target tool is seen from ``max(depths) +`` :data:`EYE_TO_HAND_STANDOFF`
+    m in front of the arm (:func:`fixed_camera_pose` of the carrier at the target), and the markers
+    are fixed on the carrier (default the flange) where that camera sees them at the target: at
+    ``depths`` along ``rays_xy`` (:data:`EYE_TO_HAND_RAYS_XY`, a triangle without a symmetry axis in
+    the image). A draw is kept when J_rel (6, n), the camera's twist relative to the markers
+    (:mod:`ibvs_youla.model.eye_to_hand`), has a smallest singular value >=
+    :data:`FOR_ARM_MIN_SIGMA` at the start and the target and every marker is visible along the
+    straight joint-space path; else it is drawn again (at most 200 times).
+
+    Args:
+        arm: An eye-in-hand :class:`~ibvs_youla.model.arm.Arm` (its limits, kinematics, ``robot``).
+        seed: Seed of ``numpy.random.default_rng`` (an int or a ``SeedSequence``).
+        q_center: Configuration (n,) the target is drawn around (as :func:`for_arm`).
+        spread_deg: Half-width of the target draw per joint [deg].
+        step_deg: Half-width of the start's offset from the target per joint [deg].
+        depths: Marker depths in the target camera (3,) [m].
+        rays_xy: Normalized image coordinates (3, 2) of the markers in the target image.
+        joint_offset_deg: The unseen encoder offset d on every revolute joint [deg] (ERRATA 14).
+        camera: The camera the markers must be visible to; default ``default_camera()``.
+        name: The scenario's name; default ``"<robot>-<seed>"``.
+        carrier_frame: The frame of the arm's last link carrying the markers; default the flange.
+
+    Raises:
+        InvalidParameterError: as :func:`for_arm`.
+    """
+    return _mounted_draw(
+        arm, seed, (EYE_TO_HAND,), q_center, spread_deg, step_deg, depths, rays_xy, joint_offset_deg,
+        camera, carrier_frame, name,
+    )[0]  # fmt: skip
+
+
+def mount_pair(
+    arm: Any,
+    seed: Any = 0,
+    *,
+    q_center: Any = None,
+    spread_deg: float = 10.0,
+    step_deg: float = 5.0,
+    depths: Any = EYE_TO_HAND_DEPTHS,
+    rays_xy: Any = EYE_TO_HAND_RAYS_XY,
+    joint_offset_deg: float = 0.0,
+    camera: Any = None,
+    carrier_frame: str | None = None,
+    name: str | None = None,
+) -> tuple[Scenario, Scenario]:
+    """(eye-in-hand, eye-to-hand) scenarios of one draw: the same joints, the same target image.
+
+    Arguments as :func:`eye_to_hand`. A draw is kept when both mountings meet :func:`eye_to_hand`'s
+    conditions: the eye-in-hand twin has the arm's own camera and the markers fixed in the base
+    where it sees them at the target at ``depths`` along ``rays_xy`` (as :func:`for_arm`), so both
+    cameras see the same image at the target and start from the same joints.
+    """
+    first, second = _mounted_draw(
+        arm, seed, (EYE_IN_HAND, EYE_TO_HAND), q_center, spread_deg, step_deg, depths, rays_xy,
+        joint_offset_deg, camera, carrier_frame, name,
+    )  # fmt: skip
+    return first, second
+
+
+def _mounted_draw(
+    arm: Any,
+    seed: Any,
+    mounts: tuple[str, ...],
+    q_center: Any,
+    spread_deg: float,
+    step_deg: float,
+    depths: Any,
+    rays_xy: Any,
+    joint_offset_deg: float,
+    camera: Any,
+    carrier_frame: str | None,
+    name: str | None,
+) -> tuple[Scenario, ...]:
+    """The scenarios of ``mounts`` from the first draw of ``seed`` that every one of them accepts."""
+    from .model.camera import default_camera
+    from .model.eye_to_hand import mounted
+    from .model.robots import get
+
+    n = int(arm.nq)
+    if q_center is None:
+        if getattr(arm, "robot", None) is None:
+            raise InvalidParameterError(
+                "q_center", None, f"a configuration ({n},): the arm has no home configuration"
+            )
+        q_center = get(arm.robot).q_home
+    q_center = as_array(q_center, "q_center", (n,))
+    rays_xy = as_array(rays_xy, "rays_xy", (None, 2))
+    depths = as_array(depths, "depths", (rays_xy.shape[0],))
+    camera = default_camera() if camera is None else camera
+    distance = float(depths.max()) + EYE_TO_HAND_STANDOFF
+    carrier = arm.flange_frame if carrier_frame is None else carrier_frame
+    T_H_E = arm.frame_in_camera(carrier)  # the carrier in the arm's own camera frame
+    periodic = np.asarray(getattr(arm, "periodic", np.ones(n)), dtype=bool)
+    margin = np.where(periodic, np.radians(1.0), 1e-3)
+    lo, hi = np.asarray(arm.q_min) + margin, np.asarray(arm.q_max) - margin
+    spread = np.where(periodic, np.radians(spread_deg), 0.01)
+    step = np.where(periodic, np.radians(step_deg), 0.005)
+    offset = np.where(periodic, np.radians(joint_offset_deg), 0.0)
+    rng = np.random.default_rng(seed)
+    label = name if name is not None else f"{getattr(arm, 'robot', None) or arm.name}-{seed}"
+    for _ in range(200):
+        q_target = np.clip(q_center + spread * rng.uniform(-1.0, 1.0, n), lo, hi)
+        q_start = np.clip(q_target + step * rng.uniform(-1.0, 1.0, n), lo, hi)
+        path = [q_start + offset + f * (q_target - q_start - offset) for f in np.linspace(0.0, 1.0, 11)]
+        made = []
+        for kind in mounts:
+            if kind == EYE_IN_HAND:
+                view, mount = arm, None
+                markers = np.round(place_markers(arm.camera_pose(q_target), rays_xy, depths), 6)
+            else:
+                T_O_E = matmul(arm.camera_pose(q_target), T_H_E)
+                mount = Mount.eye_to_hand(fixed_camera_pose(T_O_E, distance), carrier_frame)
+                view = mounted(arm, mount)
+                markers = np.round(place_markers(view.camera_pose(q_target), rays_xy, depths), 6)  # in {E}
+            sigmas = [
+                np.linalg.svd(view.camera_jacobian(q), compute_uv=False).min() for q in (q_start, q_target)
+            ]
+            if min(sigmas) < FOR_ARM_MIN_SIGMA or not all(
+                _visible(camera, view.camera_pose(q), markers) for q in path
+            ):
+                break
+            made.append(
+                Scenario(
+                    q_start=q_start,
+                    q_target=q_target,
+                    joint_offset=offset,
+                    name=f"{label}-{kind}" if len(mounts) > 1 else label,
+                    description=(
+                        f"{arm.name}, {kind}: target within +-{spread_deg:g} deg of "
+                        f"{'q_center' if name else 'home'}, start +-{step_deg:g} deg from it, markers at "
+                        f"depths {tuple(depths.tolist())} m of the target camera (seed {seed})"
+                    ),
+                    **({"markers_O": markers} if mount is None else {"markers_E": markers}),
+                    mount=mount,
+                )
+            )
+        if len(made) == len(mounts):
+            return tuple(made)
+    raise InvalidParameterError(
+        "seed",
+        f"arm {arm.name!r}, seed {seed}",
+        f"a draw with the camera Jacobian's smallest singular value >= {FOR_ARM_MIN_SIGMA} and every "
+        f"marker visible, {' and '.join(mounts)} (none in 200 attempts: another q_center, smaller "
+        "spread_deg/step_deg or other depths)",
+    )
 
 
 def _check_index(index: Any) -> int:

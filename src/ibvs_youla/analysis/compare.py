@@ -353,7 +353,8 @@ def compare(
         InvalidParameterError: an unknown controller name, a name given twice, an empty list,
             a bad plant or duration (also one the simulator refuses: shorter than one tick of
             the plant, or too long for memory: raised at the first method, before any runs),
-            or a free-camera scenario on an arm plant.
+            a free-camera scenario on an arm plant, or an eye-to-hand scenario
+            (``scenario.mount``: the arm carries the markers) on the free camera.
     """
     from .. import controllers as registry
     from .._validation import instance, one_of, positive
@@ -382,6 +383,10 @@ def compare(
     if plant != "free-camera" and not scenario.has_joints:
         raise InvalidParameterError(
             "plant", plant, f"'free-camera' for the free-camera scenario {scenario.name!r} (it has no joints)"
+        )
+    if plant == "free-camera" and scenario.is_eye_to_hand:
+        raise InvalidParameterError(
+            "plant", plant, f"'dynamic' or 'kinematic' for the eye-to-hand scenario {scenario.name!r}"
         )
     labelled = [
         (c, c) if isinstance(c, str) else (getattr(c, "name", type(c).__name__), c) for c in controllers

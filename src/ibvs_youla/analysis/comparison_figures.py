@@ -149,7 +149,8 @@ def plot_camera_paths(comparison: Comparison) -> Figure:
     """The camera centre's path of each method in 3-D (base frame, m), markers and target.
 
     ``ax.lines[k]`` is method k's path; then its start (circle); the markers are scattered in
-    black and the target camera position is a black cross.
+    black and the target camera position is a black cross. Eye-to-hand everything is in the
+    frame that carries the markers (the camera's path relative to them).
     """
     fig = _new_figure((7.5, 6.5), _title(comparison, "camera paths"))
     ax = fig.add_subplot(projection="3d")
@@ -160,7 +161,7 @@ def plot_camera_paths(comparison: Comparison) -> Figure:
     for k, (_, result) in enumerate(items):
         p0 = result.camera_pose[0, :3, 3]
         ax.plot([p0[0]], [p0[1]], [p0[2]], "o", color=f"C{k}", mfc="none")
-    markers = np.asarray(comparison.scenario.markers_O)
+    markers = np.asarray(comparison.scenario.markers)
     ax.scatter(markers[:, 0], markers[:, 1], markers[:, 2], color="k", s=12, label="markers")
     if items:
         target = items[0][1].camera_pose_target[:3, 3]

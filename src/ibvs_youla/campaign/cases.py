@@ -17,6 +17,16 @@ Families (:data:`FAMILIES`):
 * ``"arm-virtual"`` — the same configurations, markers anywhere in a box in front of the arm
   (x 1-4 m, y -2-2 m, z -0.5-2 m), projected whatever their depth sign, as the paper's virtual
   points (ERRATA 13).
+* ``"arm-eye-to-hand"`` / ``"arm-eye-in-hand"`` — one draw, two mountings
+  (:func:`ibvs_youla.scenarios.mount_pair` on the IRB 4600, the draw of case k from its own
+  stream): a target configuration within +-10 deg of the arm's home configuration, a start up to
+  ``difficulty`` x :data:`MOUNT_STEP_DEG` per joint away; eye-to-hand, a camera fixed in front of
+  the target tool (0.85 m, level, facing the arm) and three markers on the flange where it sees
+  them at 0.6-0.8 m along :data:`~ibvs_youla.scenarios.EYE_TO_HAND_RAYS_XY`; eye-in-hand, the arm's
+  own camera and the markers fixed in the base where it sees the same image at the target. Case k
+  of both families is the same draw, kept only if both mountings keep every marker in view along
+  the joint-space path and the camera Jacobian's smallest singular value >= 0.05 at both ends:
+  matched cases. The mount is in each eye-to-hand spec's scenario (``mount``, ``markers_E``).
 * ``"free-planar"`` / ``"free-nonplanar"`` — a camera without an arm in front of a 0.2 m square
   (four points) or of the square plus two points 0.1 m off its plane; the target camera 0.75 m
   in front, facing it (ViSP's tutorial geometry); the start a rotation about a random axis by
@@ -57,7 +67,7 @@ import numpy as np
 from .._memory import fits_in_memory
 from .._reproducible import matmul, norm3
 from .._validation import integer, one_of, real
-from ..catalog import ARM_FAMILIES, FAMILIES
+from ..catalog import ARM_FAMILIES, FAMILIES, MOUNT_FAMILIES
 from ..exceptions import InvalidParameterError
 
 __all__ = [
@@ -71,6 +81,8 @@ __all__ = [
     "MAX_TRANSLATION_M",
     "MIN_JACOBIAN_SIGMA",
     "MIN_ROLL_DEG",
+    "MOUNT_FAMILIES",
+    "MOUNT_STEP_DEG",
     "ROLL_TILT_DEG",
     "ROLL_TRANSLATION_M",
     "SCENE_FAMILIES",
@@ -85,6 +97,7 @@ LIMIT_MARGIN = 0.1  # of each joint's range, kept clear at both ends
 WRIST_MARGIN_DEG = 10.0  # |q5| >= this [deg]
 MIN_JACOBIAN_SIGMA = 0.05  # smallest singular value of the 6x6 LOCAL camera Jacobian (m/rad and 1)
 MAX_JOINT_STEP_DEG = 30.0  # per joint at difficulty 1 [deg]
+MOUNT_STEP_DEG = 5.0  # the mount families' start offset per joint at difficulty 1 [deg]
 MAX_ROTATION_DEG = 90.0  # free camera, at difficulty 1 [deg]
 MAX_TRANSLATION_M = 0.3  # free camera, at difficulty 1 [m]
 MIN_ROLL_DEG, MAX_ROLL_DEG = 90.0, 180.0  # free-roll: about the optical axis, at difficulty 1 [deg]
@@ -149,6 +162,11 @@ def generate_cases(family: str, n: int, seed: int, *, difficulty: float = 1.0) -
     difficulty = real(difficulty, "difficulty", low=0.0, low_open=True, high=MAX_DIFFICULTY)
     fits_in_memory(4096.0 * n, "n", n, "fewer cases")  # a case holds its scenario and seed, ~4 kB
     streams = np.random.SeedSequence(int(seed)).spawn(int(n))
+    if family in MOUNT_FAMILIES:
+        from ..model.arm import Arm
+
+        arm = Arm.irb4600()
+        return tuple(_mount_case(family, k, s, difficulty, arm) for k, s in enumerate(streams))
     if family in ARM_FAMILIES:
         from ..model.arm import Arm
         from ..model.camera import default_camera
@@ -236,6 +254,24 @@ def _arm_case(
         }
         return Case(family, index, scenario, _difficulty(T_start, T_target), draw)
     raise _undrawable(family, index, difficulty)
+
+
+def _mount_case(family: str, index: int, stream: np.random.SeedSequence, difficulty: float, arm: Any) -> Case:
+    """Case ``index`` of a mount family: one mounting of :func:`~ibvs_youla.scenarios.mount_pair`."""
+    from ..model.eye_to_hand import mounted
+    from ..scenarios import mount_pair
+
+    try:
+        pair = mount_pair(arm, stream, step_deg=MOUNT_STEP_DEG * difficulty, name=f"{family}-{index}")
+    except InvalidParameterError:
+        raise _undrawable(family, index, difficulty) from None
+    scenario = pair[MOUNT_FAMILIES.index(family)]
+    view = mounted(arm, scenario.mount)
+    T_start, T_target = view.camera_pose(scenario.q_true_start), view.camera_pose(scenario.q_target)
+    data = scenario.to_dict()
+    data["name"] = f"{family}-{index}"
+    del data["description"]
+    return Case(family, index, data, _difficulty(T_start, T_target))
 
 
 # ----------------------------------------------------------------------------- free camera

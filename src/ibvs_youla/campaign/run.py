@@ -63,4 +63,10 @@ def run_spec_with_result(spec: ExperimentSpec | str) -> tuple[dict[str, Any], An
         return row_from_result(spec, err.partial, arm, time.perf_counter() - t0), err.partial
     except Exception as err:  # every failure becomes a row: the campaign goes on
         return error_row(spec, err, time.perf_counter() - t0), None
+    if (
+        arm is not None and kwargs["scenario"].is_eye_to_hand
+    ):  # the row's J: the camera's relative to the markers
+        from ..model.eye_to_hand import mounted
+
+        arm = mounted(arm, kwargs["scenario"].mount)
     return row_from_result(spec, result, arm, time.perf_counter() - t0), result

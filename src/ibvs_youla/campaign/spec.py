@@ -240,7 +240,8 @@ class ExperimentSpec:
         case: Index of the case in its campaign (0, 1, ...).
         seed: The campaign's seed (the case's own stream is ``SeedSequence(seed).spawn(...)[case]``).
         scenario: The scenario as plain data (``Scenario.to_dict()``: joints or camera poses,
-            markers, joint offset, virtual points, name).
+            markers, joint offset, virtual points, name; eye-to-hand, ``markers_E`` and the
+            ``mount``, absent from eye-in-hand specs, whose keys are unchanged).
         controller: A registered controller name (``iy.controllers.names()``).
         controller_params: Keyword parameters of ``iy.controllers.make`` (JSON values).
         plant: ``"dynamic"``, ``"kinematic"`` or ``"free-camera"``.
@@ -334,11 +335,20 @@ class ExperimentSpec:
         (and settings, duration, and disturbances when there are some), rebuilt from the plain data.
         """
         from ..controllers import make
+        from ..model.mount import Mount
         from ..scenarios import Scenario
         from ..simulation.settings import SimulationSettings
 
         data = dict(self.scenario)
-        keys = ("q_start", "q_target", "markers_O", "joint_offset", "T_O_C_start", "T_O_C_target")
+        keys = (
+            "q_start",
+            "q_target",
+            "markers_O",
+            "markers_E",
+            "joint_offset",
+            "T_O_C_start",
+            "T_O_C_target",
+        )
         arrays = {k: np.asarray(data[k], dtype=float) for k in keys if data.get(k) is not None}
         scenario = Scenario(
             **arrays,
@@ -346,6 +356,7 @@ class ExperimentSpec:
             virtual_points=bool(data.get("virtual_points", False)),
             description=str(data.get("description", "")),
             scene=data.get("scene"),  # plain data of a TexturedPlane, or None
+            mount=None if data.get("mount") is None else Mount.from_dict(data["mount"]),
         )
         settings = dict(self.settings)
         if "sv_policy" in settings:

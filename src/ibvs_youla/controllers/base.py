@@ -126,7 +126,10 @@ class ServoTask:
 
     Attributes:
         camera: The controller's camera model (a ``StereoCamera`` or ``PinholeCamera``).
-        markers_O: The controller's marker coordinates (n, 3) in the base frame [m].
+        markers_O: The controller's marker coordinates (n, 3) in the base frame [m]. Eye-to-hand
+            (``arm.mount``, :mod:`ibvs_youla.model.eye_to_hand`) every "base frame" of the task
+            is the frame carrying the markers, {E}: the markers' coordinates there, and the
+            camera poses T_E_C, the fixed camera seen from the tool.
         feature_target: Target features (m,), as measured by the camera at the target.
         T_O_C_target: Target camera pose in the base frame (4, 4) [m].
         tick_period: Period of :meth:`Controller.command` calls [s].

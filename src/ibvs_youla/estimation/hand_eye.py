@@ -4,6 +4,11 @@ Frames (docs/conventions.md): A_i = T_E1_E2 is a relative flange motion, B_i = T
 motion seen by the camera, X = T_E_C. From T_O_C = T_O_E X: T_C1_C2 = X^-1 T_E1_E2 X, i.e.
 A_i X = X B_i. Eq. (19)-(20) as printed mix the paper's two transform conventions; re-derived here:
 A_i = T_O_E1^-1 T_O_E2 and, with T_C_M the marker pose of Appendix C, B_i = T_C1_M T_C2_M^-1.
+
+**Eye-to-hand** (:mod:`ibvs_youla.model.eye_to_hand`: the camera fixed at X = T_O_C, the markers M
+on the flange at an unknown T_E_M): T_O_C T_C_Mi = T_O_Ei T_E_M, so T_C_Mi = X^-1 T_O_Ei T_E_M and
+B_i = T_C1_M T_C2_M^-1 = X^-1 (T_O_E1 T_O_E2^-1) X. The same equation A_i X = X B_i, the same
+solver, with the flange motion taken in the base frame, A_i = T_O_E1 T_O_E2^-1, and X = T_O_C.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ AXIS_TOL = 1e-6  # rotation axes count as all parallel when s2/s1 of the stacked
 
 
 def calibrate_hand_eye(A: object, B: object) -> np.ndarray:
-    """Solve A_i X = X B_i (Eq. 18) for X = T_E_C by Park & Martin's closed form.
+    """Solve A_i X = X B_i (Eq. 18) for X = T_E_C (eye-to-hand: X = T_O_C) by Park & Martin's closed form.
 
     F. C. Park and B. J. Martin, "Robot sensor calibration: solving AX = XB on the Euclidean group",
     IEEE Trans. Robotics and Automation 10(5):717-721, 1994. Rotation: alpha_i = log R_A_i and
@@ -32,11 +37,13 @@ def calibrate_hand_eye(A: object, B: object) -> np.ndarray:
     still give a rotation). Translation: least squares on (R_A_i - I) t_X = R_X t_B_i - t_A_i.
 
     Args:
-        A: Relative flange motions T_E1_E2, shape (n, 4, 4), n >= 2 (Eq. 19, re-derived).
-        B: The matching relative camera motions T_C1_C2, shape (n, 4, 4) (Eq. 20, re-derived).
+        A: Relative flange motions T_E1_E2, shape (n, 4, 4), n >= 2 (Eq. 19, re-derived);
+            eye-to-hand T_O_E1 T_O_E2^-1 (module docstring).
+        B: The matching relative camera motions T_C1_C2, shape (n, 4, 4) (Eq. 20, re-derived);
+            eye-to-hand, the markers' motion seen by the fixed camera, T_C_M1 T_C_M2^-1.
 
     Returns:
-        X = T_E_C (4x4).
+        X = T_E_C (4x4); eye-to-hand X = T_O_C.
 
     Raises:
         InvalidArrayError: wrong shapes, non-finite entries, or matrices that are not rigid transforms.
@@ -89,12 +96,16 @@ def simulate_hand_eye_run(
     marker is visible (`StereoCamera.visibility`), projects the markers with the arm's true camera
     pose (so with its T_E_C), adds Gaussian noise of `pixel_noise` px to every feature, triangulates
     (Eq. C6-C8) and estimates T_C_M (Appendix C, Eq. C10-C17), then forms consecutive motions
-    A_i = T_O_Ei^-1 T_O_Ei+1 and B_i = T_CiM T_Ci+1M^-1.
+    A_i = T_O_Ei^-1 T_O_Ei+1 and B_i = T_CiM T_Ci+1M^-1. For an eye-to-hand arm (``arm.mount``,
+    an :class:`~ibvs_youla.model.eye_to_hand.EyeToHandArm`, whose ``camera_pose`` is the fixed
+    camera's in the markers' carrier frame) the markers ride on the arm and A_i = T_O_Ei T_O_Ei+1^-1
+    (module docstring): ``calibrate_hand_eye(A, B)`` then gives the camera's pose T_O_C.
 
     Args:
-        arm: Provides ``flange_pose(q)``, ``camera_pose(q)``, ``q_min``, ``q_max``.
+        arm: Provides ``flange_pose(q)``, ``camera_pose(q)``, ``q_min``, ``q_max`` and ``mount``.
         camera: The stereo camera.
-        markers_O: Marker positions (3, 3) in the base frame [m].
+        markers_O: Marker positions (3, 3) in the frame they are fixed in [m]: the base frame, or
+            eye-to-hand the arm's carrier frame.
         q_center: Joint vector (n,) around which poses are drawn [rad], n the arm's joints.
         n_poses: Number of poses (>= 3 gives >= 2 motions).
         rng: Random generator (seeded by the caller).
@@ -133,6 +144,9 @@ def simulate_hand_eye_run(
             f"only {len(T_O_E)} of {n_poses} poses had every marker in view after "
             f"{max_tries} draws; move q_center or the markers, or reduce spread"
         )
-    A = np.array([inverse_pose(T_O_E[i]) @ T_O_E[i + 1] for i in range(n_poses - 1)])
+    if arm.mount.is_eye_to_hand:  # type: ignore[attr-defined]
+        A = np.array([T_O_E[i] @ inverse_pose(T_O_E[i + 1]) for i in range(n_poses - 1)])
+    else:
+        A = np.array([inverse_pose(T_O_E[i]) @ T_O_E[i + 1] for i in range(n_poses - 1)])
     B = np.array([T_C_M[i] @ inverse_pose(T_C_M[i + 1]) for i in range(n_poses - 1)])
     return A, B

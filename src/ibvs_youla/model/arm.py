@@ -73,6 +73,7 @@ from .ik import (
 from .ik_kernels import ik_parameter_array, nearest_branch_compiled, nearest_row_compiled, poses_match
 from .ik_numerical import solve_near
 from .ik_ur import UrParameters, ur_branches_compiled, ur_parameter_array
+from .mount import Mount
 from .urdf_checks import check_model
 
 __all__ = ["ABA_CONVENTION", "ActuatorParameters", "Arm"]
@@ -301,6 +302,42 @@ class Arm:
     def redundant(self) -> bool:
         """True when the arm has more joints than a camera pose has degrees of freedom (n > 6)."""
         return self.nq > 6
+
+    @property
+    def mount(self) -> Mount:
+        """The camera's mounting: eye-in-hand, on :attr:`camera_frame` at :attr:`T_F_C`.
+
+        An eye-to-hand arm (:class:`~ibvs_youla.model.eye_to_hand.EyeToHandArm`) has its own.
+        """
+        return Mount()
+
+    @property
+    def hand_eye(self) -> np.ndarray:
+        """X of the hand-eye calibration AX = XB (Eq. (18)): eye-in-hand, the camera in the flange, T_E_C."""
+        return self.T_E_C
+
+    def frame_in_camera(self, frame: str) -> np.ndarray:
+        """T_C_F (4, 4): frame F of the camera's link, in the camera frame {C} (fixed: both ride on it).
+
+        E.g. the frame that carries the markers of an eye-to-hand mount
+        (:mod:`ibvs_youla.model.eye_to_hand`).
+
+        Raises:
+            InvalidParameterError: ``frame`` is not a frame of the camera's link (the message
+                lists those that are).
+        """
+        frame = text(frame, "frame", empty=False)
+        last = int(self.model.frames[self._camera_id].parentJoint)
+        on_link = sorted({f.name for f in self.model.frames if int(f.parentJoint) == last})
+        if frame not in on_link:
+            raise InvalidParameterError(
+                "frame",
+                frame,
+                f"a frame of the camera's link (joint {self.model.names[last]!r}, the last of the chain): "
+                f"{on_link}",
+            )
+        placement = self.model.frames[self._frame(frame)].placement
+        return (self.model.frames[self._camera_id].placement.inverse() * placement).homogeneous
 
     # ------------------------------------------------------------------ construction
     @classmethod

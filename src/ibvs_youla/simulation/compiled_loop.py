@@ -11,7 +11,11 @@ loop="plug-in")`` keeps the plug-in loop):
   disturbance (noise, dropouts, latency, images);
 * the plant: the free camera (:class:`~.free_camera.FreeCameraPlant`), or the kinematic arm
   (:class:`~.kinematic_arm.KinematicArmPlant`) following the joint velocities of
-  :class:`~.actuation.TwistToJointVelocity`, any number of joints.
+  :class:`~.actuation.TwistToJointVelocity`, any number of joints, either mounting: eye-to-hand
+  the arm's kinematics are those of :class:`~ibvs_youla.model.eye_to_hand.EyeToHandArm` (the fixed
+  camera's pose in the markers' carrier frame and J_rel), which the kernels take as they take
+  the eye-in-hand camera pose and J_C (``tests/test_eye_to_hand_servo.py``: equal to the plug-in
+  loop).
 
 Beliefs (the controller's camera and markers) and calibration disturbances, which change models and
 not roles, are covered. The depths of L come from the depth sensor (``sensor="depth"``) or the

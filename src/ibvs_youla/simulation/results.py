@@ -100,8 +100,9 @@ class SimulationResult:
 
     Attributes:
         t: Sample times (N,) [s].
-        camera_pose: True camera pose ``T_O_C`` (N, 4, 4) [m].
-        camera_pose_target: Target camera pose ``T_O_C`` (4, 4) [m].
+        camera_pose: True camera pose ``T_O_C`` (N, 4, 4) [m]; eye-to-hand (``metadata["mount"]``)
+            the fixed camera's pose in the frame that carries the markers, T_E_C(q).
+        camera_pose_target: Target camera pose ``T_O_C`` (4, 4) [m] (eye-to-hand T_E_C*).
         features: Last measured features (N, m), point-major: [u_l, u_r, v] per point for a
             stereo camera (Eq. (24)), [u, v] for a monocular one [m on the sensor; unitless
             normalized coordinates for ``PinholeCamera.normalized()``].

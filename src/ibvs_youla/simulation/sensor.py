@@ -30,6 +30,10 @@ __all__ = ["MarkerSensor"]
 class MarkerSensor:
     """Features and per-point visibility of markers fixed in the base frame.
 
+    Eye-to-hand (:mod:`ibvs_youla.model.eye_to_hand`) the markers are fixed in the frame of the
+    arm that carries them and the camera poses it is given are the fixed camera's in that frame,
+    T_E_C(q): the same projection (``markers_O`` then reads as the markers' coordinates in {E}).
+
     Args:
         camera: A ``StereoCamera`` (>= 3 markers) or ``PinholeCamera`` (>= 4 markers).
         markers_O: Marker positions (n, 3) in the base frame [m].

@@ -38,6 +38,7 @@ from ..estimation.stereo_pose import check_marker_geometry
 from ..exceptions import IbvsYoulaError, InvalidControllerOutputError, InvalidParameterError
 from ..model.arm import Arm
 from ..model.camera import PinholeCamera, StereoCamera, default_camera
+from ..model.eye_to_hand import mounted
 from ..scenarios import Scenario
 from .actuation import actuation_chain
 from .compiled_loop import CompiledLoop
@@ -64,11 +65,15 @@ class Beliefs:
     """What the controller believes where it differs from the truth (``None``: the truth).
 
     Attributes:
-        arm: The controller's arm model: kinematics (hence the hand-eye transform T_E_C),
-            dynamics for the feedback linearization. ``SimulationSettings.model_inertia_scale``
-            scales it further.
+        arm: The controller's arm model: kinematics (hence the hand-eye transform: T_E_C
+            eye-in-hand; eye-to-hand, the fixed camera's pose T_O_C, given as an
+            :class:`~ibvs_youla.model.eye_to_hand.EyeToHandArm`, e.g.
+            ``mounted(arm, scenario.mount).with_camera_pose(T_O_C_believed)``; a plain Arm
+            in an eye-to-hand scenario takes the scenario's mount), dynamics for the feedback
+            linearization. ``SimulationSettings.model_inertia_scale`` scales it further.
         camera: The controller's camera model (focal length, baseline, principal point).
-        markers_O: The controller's marker coordinates (n, 3) [m].
+        markers_O: The controller's marker coordinates (n, 3) [m], in the frame they are fixed
+            in (the base eye-in-hand, the carrier eye-to-hand).
     """
 
     arm: Arm | None = None
@@ -95,7 +100,7 @@ class Beliefs:
                 monocular belief of a stereo camera (or the reverse), an arm belief without an
                 arm plant.
         """
-        if self.markers_O is not None and self.markers_O.shape != scenario.markers_O.shape:  # type: ignore[union-attr]
+        if self.markers_O is not None and self.markers_O.shape != scenario.markers.shape:
             raise InvalidParameterError(
                 "beliefs.markers_O",
                 f"{self.markers_O.shape[0]} markers",
@@ -113,12 +118,19 @@ class Beliefs:
             raise InvalidParameterError(
                 "beliefs.arm", self.arm.name, "None on the free-flying camera (no arm)"
             )
+        if self.arm is not None and self.arm.mount.is_eye_to_hand and not scenario.is_eye_to_hand:
+            raise InvalidParameterError(
+                "beliefs.arm",
+                repr(self.arm),
+                f"an eye-in-hand Arm for the eye-in-hand scenario {scenario.name!r}",
+            )
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data for the run's specification (the arm by name and hand-eye transform)."""
         arm = None
-        if self.arm is not None:
-            arm = {"name": self.arm.name, "T_E_C": np.asarray(self.arm.T_E_C).tolist()}
+        if self.arm is not None:  # its hand-eye transform: T_E_C eye-in-hand, T_O_C eye-to-hand
+            key = "T_O_C" if self.arm.mount.is_eye_to_hand else "T_E_C"
+            arm = {"name": self.arm.name, key: np.asarray(self.arm.hand_eye).tolist()}
         return {
             "arm": arm,
             "camera": None if self.camera is None else repr(self.camera),
@@ -163,6 +175,10 @@ def simulate(
             ``SimulationSettings.paper()`` runs the camera at the joint rate. On the
             free-flying camera the tick is the camera period.
         arm: The true arm; default ``Arm.irb4600()`` (not built for a free-camera scenario).
+            An eye-to-hand scenario (``scenario.mount``) mounts it
+            (:func:`~ibvs_youla.model.eye_to_hand.mounted`): the sensor, the controller's task
+            and the recorded ``camera_pose`` are then the fixed camera's pose in the markers'
+            carrier frame, T_E_C(q) (docs/eye-to-hand.md).
         beliefs: Where the controller's models differ from the truth (:class:`Beliefs`).
         sensor: What measures each frame. None (or ``"ideal"``): the true projections,
             :class:`~.sensor.MarkerSensor`; ``"depth"``: the same with each point's depth in
@@ -200,7 +216,9 @@ def simulate(
             sensor, a joint rate below 1/tau_in on the dynamic arm, a free-camera scenario on an
             arm plant, a disturbance with nothing to act on (e.g. friction on the kinematic
             arm), or a controller that cannot use the task (e.g. the paper's controller with a
-            monocular camera).
+            monocular camera); eye-to-hand: the free-flying camera plant, an arm mounted
+            otherwise than the scenario, a carrier frame not on the arm's last link, or a
+            camera pose from which no marker is visible at the start.
         IncompatibleCommandError: the controller's command cannot drive the plant.
         JointLimitError: the scenario's configurations are outside the arm's limits.
         ControllerError: a controller object's method raised (``reset``, ``spec``, ``update``,
@@ -236,7 +254,7 @@ def simulate(
         world = _free_camera_world(scenario, arm, settings)
     else:
         arm = Arm.irb4600() if arm is None else arm
-        world = _arm_world(scenario, plant, arm, settings, disturbances)
+        world = _arm_world(scenario, plant, arm, settings, disturbances, camera)
     ticks = duration / world.dt  # a float: 1e308 s is inf ticks, refused below before any rounding
     if ticks < 1.0 - 1e-9:  # no silent zero-step (or rounded-up) run
         raise InvalidParameterError(
@@ -244,11 +262,13 @@ def simulate(
             duration,
             f"at least one tick of the {plant!r} plant, {world.dt:g} s (settings' rates)",
         )
-    truth = MarkerSensor(camera, scenario.markers_O, virtual_points=scenario.virtual_points)
+    truth = MarkerSensor(camera, scenario.markers, virtual_points=scenario.virtual_points)
     chosen = _sensor(sensor, truth)
     scene = _scene_for(ctrl, scenario)
     measuring = disturbances.wrap_sensor(chosen, noise_rng, dropout_rng, scene=scene)
     beliefs.check_against(scenario, camera, world.arm is not None)
+    if beliefs.arm is not None and not beliefs.arm.mount.is_eye_to_hand:  # the scenario's mount
+        beliefs = Beliefs(mounted(beliefs.arm, scenario.mount), beliefs.camera, beliefs.markers_O)
     if disturbances.calibration_changed:
         beliefs = _disturbed_beliefs(beliefs, disturbances, scenario, camera, world.arm, marker_rng)
     model_arm = None
@@ -271,7 +291,7 @@ def simulate(
     joints = model_arm is not None
     task = ServoTask(
         camera=camera if beliefs.camera is None else beliefs.camera,
-        markers_O=scenario.markers_O if beliefs.markers_O is None else beliefs.markers_O,
+        markers_O=scenario.markers if beliefs.markers_O is None else beliefs.markers_O,
         # taught by showing: the goal is what the camera saw at the true target pose, noise-free, in
         # the controller's conversion (a sensor function's sensor without features_at: the truth's)
         feature_target=(measuring if hasattr(chosen, "features_at") else truth).features_at(
@@ -496,7 +516,7 @@ def _disturbed_beliefs(
     new_arm, new_camera, new_markers = disturbances.believed_models(
         beliefs.arm if beliefs.arm is not None else arm,
         beliefs.camera if beliefs.camera is not None else camera,
-        beliefs.markers_O if beliefs.markers_O is not None else scenario.markers_O,
+        beliefs.markers_O if beliefs.markers_O is not None else scenario.markers,
         rng,
     )
     return Beliefs(
@@ -507,12 +527,18 @@ def _disturbed_beliefs(
 
 
 def _arm_world(
-    scenario: Scenario, plant: str, arm: Arm, settings: SimulationSettings, disturbances: Disturbances
+    scenario: Scenario,
+    plant: str,
+    arm: Arm,
+    settings: SimulationSettings,
+    disturbances: Disturbances,
+    camera: Any,
 ) -> _World:
     if not scenario.has_joints:
         raise InvalidParameterError(
             "plant", plant, f"'free-camera' for the free-camera scenario {scenario.name!r} (it has no joints)"
         )
+    arm = mounted(arm, scenario.mount)  # the arm itself eye-in-hand
     scenario.validate_for(arm)
     dt = settings.dt
     if plant == "dynamic" and dt > settings.tau_in:  # the kinematic arm holds T_in exactly (ZOH)
@@ -537,7 +563,7 @@ def _arm_world(
         world_plant = KinematicArmPlant(
             arm, scenario.joint_offset, q_encoder=scenario.q_start, tau_in=settings.tau_in, dt=dt
         )
-    return _World(
+    world = _World(
         world_plant,
         arm,
         dt,
@@ -545,6 +571,25 @@ def _arm_world(
         arm.camera_pose(scenario.q_true_start),
         arm.camera_pose(scenario.q_target),
     )
+    if scenario.is_eye_to_hand and not scenario.virtual_points:
+        _check_start_view(scenario, camera, world.T_O_C_start)
+    return world
+
+
+def _check_start_view(scenario: Scenario, camera: Any, T_E_C: np.ndarray) -> None:
+    """An eye-to-hand camera must see one of the tool's markers at least, at the start (T_E_C, true q)."""
+    P_C = (scenario.markers - T_E_C[:3, 3]) @ T_E_C[:3, :3]
+    seen = camera.visibility(P_C)
+    if not seen.visible.any():
+        where = np.round(scenario.mount.camera_pose[:3, 3], 4).tolist()  # type: ignore[union-attr]
+        raise InvalidParameterError(
+            "scenario.mount.T_O_C",
+            f"a camera at {where} m that sees none of the {scenario.n_points} markers on the tool at the "
+            f"start (depths {np.round(seen.depth, 3).tolist()} m; in front {seen.in_front.tolist()}, in the "
+            f"field of view {seen.in_fov.tolist()}, in the depth range {seen.in_depth_range.tolist()})",
+            "a camera pose from which at least one marker is in front, in the field of view and within the "
+            f"depth range {tuple(camera.depth_range)} m at the start configuration",
+        )
 
 
 RK4_REAL_STABILITY = 2.785  # RK4 is stable for dt * lambda <= 2.785 on the negative real axis
@@ -573,6 +618,13 @@ def _check_damping_is_not_stiff(arm: Arm, q: np.ndarray, settings: SimulationSet
 
 
 def _free_camera_world(scenario: Scenario, arm: Arm | None, settings: SimulationSettings) -> _World:
+    if scenario.is_eye_to_hand:
+        raise InvalidParameterError(
+            "plant",
+            "free-camera",
+            f"'dynamic' or 'kinematic' for the eye-to-hand scenario {scenario.name!r}: its markers ride on "
+            "the arm and its camera is fixed (the free-flying camera plant has neither)",
+        )
     if scenario.has_joints:  # an arm scenario: its camera poses, without the arm
         arm = Arm.irb4600() if arm is None else arm
         scenario.validate_for(arm)
@@ -606,7 +658,7 @@ def _metadata(
         "camera_rate_hz": 1.0 / (world.dt * world.ticks_per_frame),
         "settings": settings.to_dict(),
         "virtual_points": scenario.virtual_points,
-        "markers_O": scenario.markers_O.tolist(),
+        **_markers_metadata(scenario),
         "arm": world.arm.name if world.arm is not None else None,
         "camera": repr(camera),
         "versions": software_versions(),
@@ -628,3 +680,10 @@ def _metadata(
             q_encoder_goal=scenario.q_encoder_goal.tolist(),
         )
     return metadata
+
+
+def _markers_metadata(scenario: Scenario) -> dict[str, Any]:
+    """The run's markers: ``markers_O`` eye-in-hand; ``markers_E`` and ``mount`` eye-to-hand."""
+    if scenario.mount is None:
+        return {"markers_O": scenario.markers.tolist()}
+    return {"markers_E": scenario.markers.tolist(), "mount": scenario.mount.to_dict()}

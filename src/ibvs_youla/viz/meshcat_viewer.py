@@ -10,6 +10,12 @@ first asks that server for its URL and gives up after ``connect_timeout`` (defau
 would wait forever. Scene paths: ``arm``, ``markers``, ``camera``, ``target``, ``rays`` (see
 :meth:`Viewer.set_visible`).
 
+**Eye-to-hand** (an :class:`~ibvs_youla.model.eye_to_hand.EyeToHandArm`, or a scenario with an
+eye-to-hand ``mount``): the camera's frustum stands still at the mount's T_O_C, the markers are
+drawn in the frame that carries them and move with it (the ``markers`` node follows the carrier's
+pose T_O_E(q) = T_O_C T_E_C(q)^-1), and the target is a ghost of the markers where the tool must
+bring them (the carrier at its target pose), not a ghost camera.
+
 A server the viewer started is its own to stop: :meth:`Viewer.close` does, and so does the end of
 the process, even by SIGTERM or SIGHUP (``kill``, a closed terminal, a batch system's stop). Their
 default action ends Python without unwinding, and meshcat's server, in a session of its own,
@@ -30,9 +36,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._geometry import inverse_pose
 from .._validation import as_array, as_pose, positive
 from ..exceptions import InvalidArrayError, InvalidParameterError, VisualizationError
 from ..model.camera import StereoCamera
+from ..model.mount import Mount
 from ..scenarios import Scenario
 from .geometry import frustum_segments_C, ray_segments_O
 from .meshcat_server import CONNECT_TIMEOUT, wait_for_server
@@ -76,10 +84,12 @@ def _translation(p: Any) -> np.ndarray:
 
 
 class Viewer:
-    """A meshcat scene of the eye-in-hand servoing task (use as a context manager or call close()).
+    """A meshcat scene of the servoing task (use as a context manager or call close()).
 
     Args:
         arm: The arm; default ``Arm.irb4600()``. Needs ``arm.urdf_path`` (its visual geometry).
+            An eye-to-hand arm (module docstring) draws the fixed camera and the markers on the
+            tool; :meth:`show_scenario` and :meth:`play` mount the arm as their run is.
         camera: The stereo camera; default ``StereoCamera.zed2()``.
         zmq_url: Connect to a running ``meshcat-server`` instead of starting one.
         connect_timeout: How long to wait for that server's answer [s]
@@ -114,7 +124,7 @@ class Viewer:
 
         from ..model.arm import Arm
 
-        self.arm = Arm.irb4600() if arm is None else arm
+        self.arm: Arm = Arm.irb4600() if arm is None else arm
         self.camera = StereoCamera.zed2() if camera is None else camera
         if not isinstance(self.camera, StereoCamera):
             raise InvalidParameterError("camera", type(self.camera).__name__, "a StereoCamera")
@@ -150,16 +160,41 @@ class Viewer:
 
     # ------------------------------------------------------------------ scene
     def display(self, q: Any) -> None:
-        """Put the arm at true joint angles ``q`` (6,) [rad]; the camera and rays follow if shown."""
+        """Put the arm at true joint angles ``q`` (n,) [rad]; the camera, tool markers and rays follow."""
         self.q = as_array(q, "q", (self.arm.nq,)).copy()
         self._robot.display(self.q)
         if self._camera_shown:
-            self._vis["camera"].set_transform(self.arm.camera_pose(self.q))
+            self._vis["camera"].set_transform(self.camera_pose_O)
+        if self._markers_O is not None and self.arm.mount.is_eye_to_hand:
+            self._vis["markers"].set_transform(self.markers_frame_O)
         if self._rays_shown:
             self._draw_rays()
 
+    @property
+    def camera_pose_O(self) -> np.ndarray:
+        """Where the camera is drawn (4, 4): T_O_C at the configuration displayed; eye-to-hand the mount's."""
+        return self.arm.hand_eye if self.arm.mount.is_eye_to_hand else self.arm.camera_pose(self.q)
+
+    @property
+    def markers_frame_O(self) -> np.ndarray:
+        """The pose (4, 4) of the markers' frame: the base's (identity); eye-to-hand T_O_E(q)."""
+        if not self.arm.mount.is_eye_to_hand:
+            return np.eye(4)
+        return self.arm.hand_eye @ inverse_pose(self.arm.camera_pose(self.q))  # T_O_C T_E_C(q)^-1
+
+    def mount(self, mount: Mount | None) -> None:
+        """Draw the task as ``mount`` has it (None: eye-in-hand): the same arm, its camera or a fixed one."""
+        from ..model.eye_to_hand import mounted
+
+        own = self.arm.arm if self.arm.mount.is_eye_to_hand else self.arm  # type: ignore[attr-defined]
+        self.arm = mounted(own, mount)
+
     def show_markers(self, markers_O: Any, radius: float = 0.05) -> None:
-        """Spheres at the markers (n, 3) [m] (base frame); 1, 2, 3 are red, green, blue."""
+        """Spheres at the markers (n, 3) [m] in the frame they are fixed in; 1, 2, 3 red, green, blue.
+
+        Eye-in-hand that frame is the base; eye-to-hand the arm's carrier frame, and the markers
+        move with it (module docstring).
+        """
         markers_O = as_array(markers_O, "markers_O", (None, 3))
         radius = positive(radius, "radius", unit="[m]")
         self._markers_O = markers_O.copy()
@@ -170,6 +205,8 @@ class Viewer:
             color = MARKER_COLORS[i % len(MARKER_COLORS)]
             node.set_object(g.Sphere(radius), g.MeshLambertMaterial(color=color))
             node.set_transform(_translation(p))
+        if self.arm.mount.is_eye_to_hand:
+            self._vis["markers"].set_transform(self.markers_frame_O)
         if self._rays_shown:
             self._draw_rays()
 
@@ -187,8 +224,16 @@ class Viewer:
         self.display(self.q if q is None else q)
 
     def show_target(self, T_O_C: Any) -> None:
-        """The target camera pose T_O_C (4, 4) as a ghost: translucent frustum, body and axes."""
+        """The target camera pose T_O_C (4, 4) as a ghost: translucent frustum, body and axes.
+
+        Eye-to-hand ``T_O_C`` is the camera's target pose in the carrier frame, T_E_C*: the ghost
+        is then the markers (those of :meth:`show_markers`) and the carrier's axes at the tool's
+        target pose T_O_C T_E_C*^-1.
+        """
         T_O_C = as_pose(T_O_C, "T_O_C")
+        if self.arm.mount.is_eye_to_hand:
+            self._show_tool_target(T_O_C)
+            return
         g, node = self._g, self._vis["target"]
         node["frustum"].set_object(self._frustum(None, GHOST_COLOR, 0.45))
         node["body"].set_object(
@@ -213,10 +258,14 @@ class Viewer:
         self.display(self.q if q is None else q)
 
     def show_scenario(self, scenario: Scenario) -> None:
-        """Arm at the true start ``q_start + d``, markers, camera, rays and the target camera pose."""
+        """Arm at the true start ``q_start + d``, markers, camera, rays and the target camera pose.
+
+        The arm is mounted as the scenario is (:meth:`mount`); eye-to-hand the target is the tool's.
+        """
         if not isinstance(scenario, Scenario):
             raise InvalidParameterError("scenario", type(scenario).__name__, "a Scenario")
-        self.show_markers(scenario.markers_O)
+        self.mount(scenario.mount)
+        self.show_markers(scenario.markers)
         self.show_target(self.arm.camera_pose(scenario.q_target))
         self.show_camera(scenario.q_true_start)
         self.show_rays()
@@ -243,7 +292,9 @@ class Viewer:
         Simulated time runs ``speed`` times wall-clock time (1 = real time, 0.25 four times
         slower); frames follow :func:`~ibvs_youla.viz.playback.playback_frames`. If drawing falls
         behind, frames are dropped to keep the speed (never the last one). Markers (from
-        ``result.metadata["markers_O"]``, with rays) and the target camera pose are drawn first.
+        ``result.metadata["markers_O"]``, with rays) and the target camera pose are drawn first;
+        an eye-to-hand run (``metadata["mount"]``, its markers ``metadata["markers_E"]``) mounts the
+        arm as it ran.
 
         Returns:
             The number of frames drawn.
@@ -252,7 +303,9 @@ class Viewer:
         if q_true.ndim != 2 or q_true.shape[1] != self.arm.nq:
             raise InvalidArrayError("result.q_true", f"shape {q_true.shape}", f"(N, {self.arm.nq})")
         frames = playback_frames(result.t, speed, fps)
-        markers = result.metadata.get("markers_O")
+        mount = result.metadata.get("mount")
+        self.mount(None if mount is None else Mount.from_dict(mount))
+        markers = result.metadata.get("markers_E" if mount is not None else "markers_O")
         if markers is not None:
             self.show_markers(markers)
             self._rays_shown = True
@@ -317,8 +370,27 @@ class Viewer:
             material = g.LineBasicMaterial(vertexColors=True)
         return g.LineSegments(geometry, material)
 
+    def _show_tool_target(self, T_E_C: np.ndarray) -> None:
+        """Eye-to-hand target: ghost markers and the carrier's axes at the tool's target pose."""
+        if self._markers_O is None:
+            raise InvalidParameterError(
+                "markers", None, "markers shown first (show_markers) for a tool target"
+            )
+        g, node = self._g, self._vis["target"]
+        node.delete()
+        for i, p in enumerate(self._markers_O):
+            ghost = node[f"marker_{i + 1}"]
+            color = MARKER_COLORS[i % len(MARKER_COLORS)]
+            ghost.set_object(
+                g.Sphere(0.05), g.MeshLambertMaterial(color=color, transparent=True, opacity=0.35)
+            )
+            ghost.set_transform(_translation(p))
+        node["axes"].set_object(g.triad(0.25))
+        node.set_transform(self.arm.hand_eye @ inverse_pose(T_E_C))
+
     def _draw_rays(self) -> None:
-        segments = ray_segments_O(self.camera, self.arm.camera_pose(self.q), self._markers_O)
+        T = self.markers_frame_O
+        segments = ray_segments_O(self.camera, self.camera_pose_O, self._markers_O @ T[:3, :3].T + T[:3, 3])
         rgb = [[(c >> 16) / 255, (c >> 8 & 255) / 255, (c & 255) / 255] for c in LENS_RAY_COLORS]
         colors = np.repeat(np.array(rgb), 2 * segments.shape[1], axis=0)
         self._vis["rays"].set_object(self._lines(segments.reshape(-1, 3), colors))

@@ -6,9 +6,11 @@
 * **camera**: focal length F' = s_F F and baseline b' = s_b b (stereo); the principal point
   (u0 + du, v0 + dv) [px], whose effect on the features the controller receives is in
   :mod:`.sensing` (it converts pixels with its own principal point);
-* **hand-eye**: T_E_C' = T_E_C T_err, T_err a rotation by the rotation vector r [deg] and a
-  translation t [m], both in the camera frame {C}: the controller believes its camera sits
-  there on the flange (``Arm.with_hand_eye``);
+* **hand-eye**: X' = X T_err, T_err a rotation by the rotation vector r [deg] and a translation
+  t [m], both in the camera frame {C}, X the hand-eye transform of the mount (``arm.hand_eye``):
+  eye-in-hand T_E_C, the controller believing its camera sits there on the flange
+  (``Arm.with_hand_eye``); eye-to-hand T_O_C, the controller believing the fixed camera stands
+  there in the base frame (``EyeToHandArm.with_camera_pose``);
 * **markers**: m_i' = c + s (m_i - c) + o + n_i, with c the markers' centroid, s a scale, o an
   offset [m] and n_i seeded N(0, sigma^2 I) draws [m] per marker.
 
@@ -56,7 +58,8 @@ def believed_models(
     new_arm = new_camera = new_markers = None
     if arm is not None and (any(d.hand_eye_translation_m) or any(d.hand_eye_rotation_deg)):
         T_err = hand_eye_error(d.hand_eye_translation_m, d.hand_eye_rotation_deg)
-        new_arm = arm.with_hand_eye(np.asarray(arm.T_E_C) @ T_err)
+        X = np.asarray(arm.hand_eye) @ T_err
+        new_arm = arm.with_camera_pose(X) if arm.mount.is_eye_to_hand else arm.with_hand_eye(X)
     changes: dict[str, Any] = {}
     if d.focal_length_scale != 1.0:
         changes["focal_length"] = camera.focal_length * d.focal_length_scale

@@ -141,7 +141,8 @@ def check_runnable(definition: CampaignDefinition) -> list[ExperimentSpec]:
     ticks = definition.duration / dt  # type: ignore[operator]
     n_points = len(specs[0].scenario["markers_O"])
     per_point = 3 if dict(definition.camera)["kind"] == "stereo" else 2  # type: ignore[arg-type]
-    signals = {"camera_twist": (6,)} if free else {name: (6,) for name in ("q", "q_true", "dq", "command")}
+    n = 6 if free else definition.make_arm().nq  # joints of the campaign's arm
+    signals = {"camera_twist": (6,)} if free else {name: (n,) for name in ("q", "q_true", "dq", "command")}
     n_rows, n_frames = ticks / settings.record_every + 2, ticks / (1 if free else settings.camera_every) + 1
     fits_in_memory(
         ResultRecorder.estimate_bytes(n_rows, n_frames, per_point * n_points, n_points, signals),

@@ -2,7 +2,8 @@
 
 Each robot gets one seeded scenario (``iy.scenarios.for_arm(arm, seed=0, step_deg=2)``: the target
 within 10 deg of the home configuration, the start 2 deg per joint from it, markers in front of
-the target camera). Every method runs on both plants for 8 s of simulated time; "reached" is the
+the target camera). Every method runs on both plants for 10 s of simulated time (ibvs-partitioned
+20 s; EXPECTED_OF_METHOD names the methods that refuse the scenario, and why); "reached" is the
 campaigns' criterion: status ``complete`` and the final camera pose within 1 mm and 0.1 deg. The
 joint loop runs at 200 Hz on the dynamic arm (the inner loop needs at least 1/tau_in = 100 Hz) and
 at 1 kHz on both arms (the simulator's default, camera at 100 Hz).
@@ -38,6 +39,22 @@ EXPECTED_OTHERWISE: dict[tuple[str, str], tuple[str, str]] = {
         "needs (test_the_xarm7_runs_at_the_joint_rate_its_damping_needs)",
     ),
 }
+# method -> (its outcome on every robot's scenario, why), before the plant's own (above)
+EXPECTED_OF_METHOD: dict[str, tuple[str, str]] = {
+    "ibvs-moments": (
+        "refused",
+        "for_arm's target image (scenarios.MARKER_RAYS_XY) is an isosceles triangle, symmetric about "
+        "the image's y axis: L_s* of the moment features is singular there (sigma_min / sigma_max "
+        "2e-9 to 3e-8 on these robots), which the method refuses at reset",
+    ),
+    "photometric": ("refused", "it servoes on the image of a textured plane; for_arm's scene is three points"),
+}
+# method -> its duration [s] where DURATION is too short for it
+DURATION_OF_METHOD = {
+    # its least-squares x/y partition does not decay at the gain's rate: on the IRB 4600 the camera is
+    # 3.9 mm / 0.30 deg from the target at 10 s, 0.15 mm / 0.013 deg at 20 s, 0.7 um at 40 s
+    "ibvs-partitioned": 20.0,
+}
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +65,8 @@ def arms():
 def _outcome(scenario, method, arm, plant):
     settings = TWIST_KINEMATIC if plant == "kinematic" and method not in ("fb", "ff+fb") else SETTINGS[plant]
     try:
-        result = iy.simulate(scenario, method, arm=arm, duration=DURATION, plant=plant, settings=settings)
+        duration = DURATION_OF_METHOD.get(method, DURATION)
+        result = iy.simulate(scenario, method, arm=arm, duration=duration, plant=plant, settings=settings)
     except InvalidParameterError:
         return "refused"
     mm, deg = result.final_pose_error()
@@ -71,7 +89,7 @@ def test_every_method_reaches_the_target_on_every_named_robot(arms, name):
         for method in iy.controllers.names()
     }
     expected = {
-        (plant, method): EXPECTED_OTHERWISE.get((name, plant), ("reached", ""))[0]
+        (plant, method): EXPECTED_OTHERWISE.get((name, plant), EXPECTED_OF_METHOD.get(method, ("reached", "")))[0]
         for plant, method in outcomes
     }
     assert outcomes == expected

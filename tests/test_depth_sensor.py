@@ -203,3 +203,16 @@ def test_a_dropped_marker_has_no_depth_either():
     missing = ~frame.visible
     assert missing.any()
     assert np.isnan(frame.depth[missing]).all() and np.isfinite(frame.depth[~missing]).all()
+
+
+def test_a_controller_is_given_the_depths_the_sensor_measured():
+    """The plug-in loop hands each controller its own copy of the frame, depths included (not None)."""
+    from servo_helpers import ConstantTwist
+
+    recorder = ConstantTwist((0.02, 0.0, 0.0, 0.0, 0.0, 0.1))
+    result = iy.simulate(
+        SCENARIO, recorder, plant="free-camera", camera=CAMERA, duration=0.2, settings=SETTINGS, sensor="depth"
+    )
+    assert len(recorder.frames) == len(result) == 6
+    for frame, T in zip(recorder.frames, result.camera_pose, strict=True):
+        np.testing.assert_allclose(frame.depth, P_C_of(T)[:, 2], rtol=0, atol=1e-15)

@@ -230,8 +230,12 @@ class ServoLoop:
 
 
 def _own_frame(frame: CameraFrame) -> CameraFrame:
-    """``frame`` with copies of its arrays: the recorder keeps the sensor's, whatever a controller writes."""
-    return CameraFrame(frame.t, np.array(frame.features), np.array(frame.visible))
+    """``frame`` with copies of its arrays: the recorder keeps the sensor's, whatever a controller writes.
+
+    Every field is copied (a field left out would reach the controller as ``None``: a depth sensor's
+    depths, a rendered image).
+    """
+    return CameraFrame(frame.t, *(None if field is None else np.array(field) for field in frame[1:]))
 
 
 def _own_reading(reading: JointReading) -> JointReading:

@@ -211,7 +211,13 @@ def test_a_controller_is_given_the_depths_the_sensor_measured():
 
     recorder = ConstantTwist((0.02, 0.0, 0.0, 0.0, 0.0, 0.1))
     result = iy.simulate(
-        SCENARIO, recorder, plant="free-camera", camera=CAMERA, duration=0.2, settings=SETTINGS, sensor="depth"
+        SCENARIO,
+        recorder,
+        plant="free-camera",
+        camera=CAMERA,
+        duration=0.2,
+        settings=SETTINGS,
+        sensor="depth",
     )
     assert len(recorder.frames) == len(result) == 6
     for frame, T in zip(recorder.frames, result.camera_pose, strict=True):

@@ -409,7 +409,8 @@ def test_screenshot_draws_another_arm_from_its_meshes(tmp_path):
         view.set_visible("arm", False)
         hidden = screenshot(view.url, tmp_path / "no_ur5.png", budget_ms=6000)
     differs = np.abs(shown - hidden).sum(axis=2) > 0.1  # [RGB in 0..1]
-    assert differs.mean() > 0.001
+    assert differs.mean() > 0.001, f"{differs.mean():.5f} of the picture differs"
     rows, cols = np.nonzero(differs)
     base = meshcat_pixels(np.zeros((1, 3)), eye)[0]
-    assert np.hypot(cols.mean() - base[0], rows.mean() - base[1]) < 80.0  # [px] the arm stands on its base
+    centre = (cols.mean(), rows.mean())
+    assert np.hypot(centre[0] - base[0], centre[1] - base[1]) < 80.0, (centre, base)  # [px] on its base

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ibvs_youla import catalog, controllers, scenarios
+from ibvs_youla import catalog, controllers, robots, scenarios
 from ibvs_youla.analysis import suites
 from ibvs_youla.campaign import cases, figures, robustness_axes, spec
 from ibvs_youla.cli.parser import build_parser
@@ -12,6 +12,11 @@ from ibvs_youla.simulation import simulate
 def test_the_controller_names_are_the_registry_s():
     # a method added to the registry must be added to catalog.CONTROLLERS too (the CLI's choices)
     assert catalog.CONTROLLERS == controllers.names()
+
+
+def test_the_robot_names_are_the_registry_s():
+    # a robot added to ibvs_youla.model.robots must be added to catalog.ROBOTS too (--robot's choices)
+    assert catalog.ROBOTS == robots.names()
 
 
 def test_the_scenario_and_suite_names_are_the_registries():

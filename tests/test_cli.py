@@ -441,11 +441,12 @@ from ibvs_youla.cli import main
 calls = [["--help"], ["simulate", "--help"], ["campaign", "--help"], ["robustness", "--help"],
          ["simulat"], ["simulate", "--scenaro", "paper-1"],
          ["compare", "--scenario", "paper-1", "--duration", "0"],
-         ["campaign", "--cases", "1", "--out", "x", "--scheduler", "tcp://h:99999"]]
+         ["campaign", "--cases", "1", "--out", "x", "--scheduler", "tcp://h:99999"],
+         ["simulate", "--robot", "ur6"], ["view", "--robot", "ur5", "--T-F-C", "1,2"]]
 codes = [main(argv) for argv in calls]
 print(codes, sorted(m for m in {HEAVY!r} if m in sys.modules))
 """
     done = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True
     )
-    assert done.stdout.strip().splitlines()[-1] == "[0, 0, 0, 0, 2, 2, 2, 2] []"
+    assert done.stdout.strip().splitlines()[-1] == "[0, 0, 0, 0, 2, 2, 2, 2, 2, 2] []"

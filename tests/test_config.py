@@ -82,8 +82,7 @@ def test_scenario_written_in_full():
 def test_settings_keys_cover_every_simulation_setting():
     from ibvs_youla.config import _settings_keys
 
-    # secondary_task (the null-space task of a redundant arm) joins the TOML keys with the config's arm
-    fields = {f.name for f in dataclasses.fields(SimulationSettings)} - {"secondary_task"}
+    fields = {f.name for f in dataclasses.fields(SimulationSettings)}
     assert set(_settings_keys()) == fields | {"preset"}
 
 
@@ -105,7 +104,14 @@ def test_settings_keys_cover_every_simulation_setting():
         ({"settings": {"sv_policy": 3}}, "settings.sv_policy", "kind, threshold"),
         ({"scenario": {"preset": "paper-3"}}, "scenario.preset", "'physical-2'"),
         ({"scenario": {"preset": "paper-1", "q_start": [0] * 6}}, "scenario.q_start", "q_start_deg"),
-        ({"scenario": {"preset": "paper-1", "q_start_deg": [0] * 5}}, "scenario.q_start_deg", "6 finite"),
+        (
+            {"scenario": {"preset": "paper-1", "q_start_deg": [0] * 5}},
+            "scenario.q_start_deg",
+            "6 or more finite",
+        ),
+        ({"scenario": {"preset": "paper-1", "q_start_deg": [0] * 7}}, "scenario.q_target_deg", "(7,)"),
+        ({"scenario": {"seed": 1, "preset": "paper-1"}}, "scenario.seed", "remove preset"),
+        ({"scenario": {"seed": -1}}, "scenario.seed", "integer >= 0"),
         ({"scenario": {"preset": "paper-1", "joint_offset_deg": "1"}}, "scenario.joint_offset_deg", "number"),
         (
             {"scenario": {"preset": "paper-1", "markers_O": [[0, 0, 0]] * 2}},
@@ -131,6 +137,17 @@ def test_settings_keys_cover_every_simulation_setting():
         ({"camera": {"mode": "4K"}}, "camera.mode", "'HD720'"),
         ({"camera": {"lens": "wide"}}, "camera.lens", "preset, mode, frame_rate"),
         ({"arm": {"actuator": "direct"}}, "arm.actuator", "'paper' or 'reflected'"),
+        ({"arm": {"robot": "ur6"}}, "arm.robot", "'ur5' or 'ur10'"),
+        ({"arm": {"robot": "ur5", "urdf": "ur5.urdf"}}, "arm.urdf", "one of them"),
+        ({"arm": {"T_F_C": [[1, 0, 0, 0]]}}, "arm.T_F_C", "4x4"),
+        ({"arm": {"locked_joints": {"j": "open"}}}, "arm.locked_joints.j", "a finite number"),
+        ({"arm": {"dq_max": [1, 2]}}, "arm.dq_max", "6 or more"),
+        (
+            {"settings": {"secondary_task": {"kind": "manipulability"}}},
+            "settings.secondary_task",
+            "joint_limit",
+        ),
+        ({"settings": {"secondary_task": {"rho": 0.7}}}, "settings.secondary_task", "(0, 0.5)"),
         ({"run": 5}, "run", "controller, plant, adaptive, duration"),
     ],
 )

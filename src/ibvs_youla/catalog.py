@@ -1,13 +1,13 @@
 """The names the library's registries accept, importable without numpy or any heavy dependency.
 
 The command line lists these as its choices (``--controller``, ``--plant``, ``--scenario``,
-``--axis``, ...) and checks them while it parses, so that ``ibvs-youla --help`` and an argument
+``--axis``, ``--robot``, ...) and checks them while it parses, so that ``ibvs-youla --help`` and an argument
 error answer at once: importing the registries themselves loads python-control, Pinocchio,
 SciPy and Numba (seconds). This module imports nothing.
 
 Where a name is only a name (plants, camera kinds, case families), it is defined here and the
-module that uses it imports it. Where a registry holds objects (controllers, scenarios, suite
-tasks, robustness axes, outcome-map axes), the registry stays the source and this module holds
+module that uses it imports it. Where a registry holds objects (controllers, robots, scenarios,
+suite tasks, robustness axes, outcome-map axes), the registry stays the source and this module holds
 the list of its names, in the registry's order; ``tests/test_catalog.py`` checks that each list
 equals its registry, so a new registry entry fails that test until its name is added here.
 """
@@ -22,6 +22,7 @@ __all__ = [
     "MAP_AXES",
     "MOUNT_FAMILIES",
     "PLANTS",
+    "ROBOTS",
     "ROBUSTNESS_AXES",
     "SCENARIOS",
     "SUITES",
@@ -48,6 +49,16 @@ MOUNT_FAMILIES: tuple[str, ...] = ("arm-eye-in-hand", "arm-eye-to-hand")
 ARM_FAMILIES: tuple[str, ...] = ("arm-physical", "arm-virtual", *MOUNT_FAMILIES)
 
 # Names of registries that hold objects (each checked against its registry by the tests).
+ROBOTS: tuple[str, ...] = (  # ibvs_youla.robots.names(): the named arms (ibvs_youla.model.robots)
+    "irb4600",
+    "ur3",
+    "ur5",
+    "ur10",
+    "panda",
+    "xarm7",
+    "z1",
+    "kinova",
+)
 CONTROLLERS: tuple[str, ...] = (  # ibvs_youla.controllers.names(), as the package registers them
     "fb",
     "ff+fb",

@@ -35,13 +35,23 @@ invalid value raises :class:`~ibvs_youla.exceptions.ConfigError` naming the key
     preset = "paper"               # or "zed2" (the real ZED 2, ERRATA 15)
     mode = "HD720"
 
-    [arm]                          # Arm.irb4600(actuator)
-    actuator = "paper"             # or "reflected"
+    [arm]                          # default: the IRB 4600 of the paper
+    robot = "ur5"                  # a name of ibvs_youla.robots.names(), or instead:
+    # urdf = "my_arm.urdf"         # a URDF file (relative to this file's folder)
+    camera_frame = "tool0"         # the frame F the camera is on (default: the robot's mount)
+    T_F_C = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0.05], [0, 0, 0, 1]]  # the camera in F [m]
+    locked_joints = { finger = 0.02 }   # joints locked at a value [rad or m]
+    # flange_frame, armature, damping, dq_max, tau_max (one number per joint): Arm.from_urdf's;
+    # actuator = "paper" or "reflected": the IRB 4600's actuator terms (Arm.irb4600)
 
 Without ``preset`` a ``[scenario]`` table must give ``q_start_deg``, ``q_target_deg``
-and ``markers_O``. Joint angles are in degrees, as in the paper's Table 1; everything
-else is SI. The arm's joint limits are checked when the scenario is simulated
-(``Scenario.validate_for``), since that needs the arm model.
+and ``markers_O`` (joint vectors of the arm's n >= 6 joints), or ``seed`` alone: the
+seeded scenario of :func:`ibvs_youla.scenarios.for_arm` for the ``[arm]`` (markers in
+front of the camera near the robot's home configuration). Joint angles are in degrees, as
+in the paper's Table 1; everything else is SI. The arm's joint limits and size are checked
+when the scenario is simulated (``Scenario.validate_for``), since that needs the arm model.
+``[settings] secondary_task = { kind = "joint_limit_avoidance", rho = 0.1 }`` turns on the
+null-space task of a redundant arm (:class:`~ibvs_youla.control.redundancy.JointLimitAvoidance`).
 """
 
 from __future__ import annotations
@@ -64,6 +74,7 @@ from .exceptions import (
     IbvsYoulaError,
     InvalidArrayError,
     InvalidParameterError,
+    ModelLoadError,
 )
 from .model.camera import ZED_MODES, default_camera
 
@@ -78,7 +89,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .scenarios import Scenario
     from .simulation.settings import SimulationSettings
 
-__all__ = ["RunConfig", "load_config", "parse_config"]
+__all__ = ["RunConfig", "arm_option_at_fault", "load_config", "make_arm", "parse_config"]
 
 Check = Callable[[str, Any], Any]
 
@@ -117,12 +128,15 @@ def _choice(*choices: str) -> Check:
     return check
 
 
-def _vector(n: int, *, scalar_ok: bool = False) -> Check:
-    def check(key: str, value: Any) -> np.ndarray:
+def _vector(n: int, *, scalar_ok: bool = False, at_least: bool = False) -> Check:
+    """A list of ``n`` finite numbers (``at_least``: ``n`` or more); ``scalar_ok``: or one number."""
+
+    def check(key: str, value: Any) -> np.ndarray | float:
         if scalar_ok and not isinstance(value, list):
-            return np.full(n, _number(key, value))
-        valid = f"a list of {n} finite numbers" + (" or one number" if scalar_ok else "")
-        if not isinstance(value, list) or len(value) != n:
+            return np.full(n, _number(key, value)) if not at_least else _number(key, value)
+        size = f"{n} or more" if at_least else f"{n}"
+        valid = f"a list of {size} finite numbers" + (" or one number" if scalar_ok else "")
+        if not isinstance(value, list) or len(value) < n or (len(value) != n and not at_least):
             raise ConfigError(key, value, valid)
         try:
             return np.array([_number(key, v) for v in value])
@@ -130,6 +144,34 @@ def _vector(n: int, *, scalar_ok: bool = False) -> Check:
             raise ConfigError(key, value, valid) from None
 
     return check
+
+
+def _transform(key: str, value: Any) -> np.ndarray:
+    valid = "a 4x4 rigid transform as four rows of four numbers [m]"
+    if not isinstance(value, list) or len(value) != 4:
+        raise ConfigError(key, value, valid)
+    try:
+        return np.array([_vector(4)(key, row) for row in value])
+    except ConfigError:
+        raise ConfigError(key, value, valid) from None
+
+
+def _joint_values(key: str, value: Any) -> dict[str, float]:
+    if not isinstance(value, Mapping):
+        raise ConfigError(key, value, "a table joint name = value [rad or m], e.g. { panda_joint7 = 0.785 }")
+    return {str(name): _number(f"{key}.{name}", v) for name, v in value.items()}
+
+
+def _secondary_task(key: str, value: Any) -> dict[str, Any]:
+    from .control.redundancy import secondary_task_from
+
+    if not isinstance(value, Mapping):
+        raise ConfigError(key, value, "a table { kind = 'joint_limit_avoidance', rho, rho1, lambda_tune }")
+    try:
+        secondary_task_from(dict(value))
+    except InvalidParameterError as err:
+        raise ConfigError(key, value, err.valid) from None
+    return dict(value)
 
 
 def _points(key: str, value: Any) -> np.ndarray:
@@ -162,6 +204,7 @@ def _settings_keys() -> dict[str, Check]:
         "estimate_from_image": _boolean,
         "branch_prior": _choice(*BRANCH_PRIORS),
         "record_every": _integer,
+        "secondary_task": _secondary_task,
     }
 
 
@@ -169,11 +212,12 @@ _SCENARIO_KEYS: dict[str, Check] = {
     "preset": _choice(*_scenarios.NAMES),
     "name": _text,
     "description": _text,
-    "q_start_deg": _vector(6),
-    "q_target_deg": _vector(6),
+    "q_start_deg": _vector(6, at_least=True),
+    "q_target_deg": _vector(6, at_least=True),
     "markers_O": _points,
-    "joint_offset_deg": _vector(6, scalar_ok=True),
+    "joint_offset_deg": _vector(6, scalar_ok=True, at_least=True),
     "virtual_points": _boolean,
+    "seed": _integer,
 }
 
 
@@ -194,7 +238,27 @@ _CAMERA_KEYS: dict[str, Check] = {
     "mode": _choice(*ZED_MODES),
     "frame_rate": _number,
 }
-_ARM_KEYS: dict[str, Check] = {"actuator": _choice("paper", "reflected")}
+
+
+def _arm_keys() -> dict[str, Check]:
+    from .model.robots import names
+
+    per_joint = _vector(6, at_least=True)
+    return {
+        "robot": _choice(*names()),
+        "urdf": _text,
+        "camera_frame": _text,
+        "flange_frame": _text,
+        "T_F_C": _transform,
+        "locked_joints": _joint_values,
+        "actuator": _choice("paper", "reflected"),
+        "armature": per_joint,
+        "damping": per_joint,
+        "dq_max": per_joint,
+        "tau_max": per_joint,
+    }
+
+
 _SV_KEYS: dict[str, Check] = {"kind": _choice("damped", "truncate"), "threshold": _number}
 
 
@@ -250,8 +314,11 @@ class RunConfig:
         adaptive: ``[run] adaptive`` or None.
         duration: ``[run] duration`` [s] or None.
         camera_options: Keyword arguments of ``StereoCamera.zed2`` from ``[camera]``.
-        arm_options: Keyword arguments of ``Arm.irb4600`` from ``[arm]``.
+        arm_options: The ``[arm]`` table, checked (:func:`make_arm`'s options; a relative
+            ``urdf`` resolved against the file's folder).
         source: Where it was read from (a path, or ``"<dict>"``).
+        scenario_seed: ``[scenario] seed``: the seed of :func:`ibvs_youla.scenarios.for_arm`
+            for the arm (then :attr:`scenario` is None), or None.
     """
 
     scenario: Scenario | None
@@ -263,6 +330,7 @@ class RunConfig:
     camera_options: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     arm_options: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     source: str = "<dict>"
+    scenario_seed: int | None = None
 
     def make_camera(self) -> StereoCamera:
         """The stereo camera of ``[camera]`` (default: ``simulate``'s, the paper's ZED 2 in VGA mode)."""
@@ -271,17 +339,75 @@ class RunConfig:
         except InvalidParameterError as err:  # e.g. a frame rate the mode does not offer
             raise _rename(err, "camera") from None
 
-    def make_arm(self) -> Arm:
-        """The arm of ``[arm]`` (default: the IRB 4600 with the paper's actuator terms)."""
-        from .model.arm import Arm
+    def make_arm(self, **overrides: Any) -> Arm:
+        """The arm of ``[arm]`` (default: the IRB 4600 with the paper's actuator terms).
 
-        return Arm.irb4600(**self.arm_options)
+        Args:
+            **overrides: Options over the table's (:func:`make_arm`), e.g. from the command line;
+                ``robot`` or ``urdf`` replaces the whole table (its mount and terms are another
+                arm's).
+
+        Raises:
+            ConfigError: a value of the table that the arm refuses (a robot description that
+                cannot be loaded, an unknown camera frame or locked joint: the message lists the
+                candidates), naming the key.
+        """
+        options = {} if "robot" in overrides or "urdf" in overrides else dict(self.arm_options)
+        options.update(overrides)
+        try:
+            return make_arm(options)
+        except ModelLoadError as err:
+            key = arm_option_at_fault(err, options)
+            raise ConfigError(f"arm.{key}", options.get(key), " ".join(str(err).split())) from None
+        except IbvsYoulaError as err:
+            unknown = getattr(err, "value", None)
+            if getattr(err, "name", None) == "overrides" and isinstance(unknown, list) and unknown:
+                raise ConfigError(f"arm.{unknown[0]}", options.get(unknown[0]), err.valid) from None
+            raise _rename(err, "arm") from None
+
+
+def arm_option_at_fault(err: ModelLoadError, options: Mapping[str, Any]) -> str:
+    """The ``[arm]`` key a robot description's refusal is about: a frame, a locked joint, else the file."""
+    for key in ("camera_frame", "flange_frame"):
+        if key in options and err.element == f"frame {options[key]!r}":
+            return key
+    if any(err.element == f"joint {name!r}" for name in options.get("locked_joints") or {}):
+        return "locked_joints"
+    return "urdf" if "urdf" in options else "robot"
+
+
+def make_arm(options: Mapping[str, Any]) -> Arm:
+    """The arm of ``[arm]`` options (module docstring): a robot by name or a URDF file, its mount.
+
+    ``robot`` (default ``"irb4600"``) goes to :meth:`~ibvs_youla.model.arm.Arm.from_robot`,
+    ``urdf`` to :meth:`~ibvs_youla.model.arm.Arm.from_urdf`, with the other options as keywords.
+
+    Raises:
+        InvalidParameterError: both ``robot`` and ``urdf``, or an option the arm refuses.
+        ModelLoadError: the robot description cannot be loaded or used (an unknown camera frame
+            or locked joint: the message lists the candidates).
+    """
+    from .model.arm import Arm
+
+    options = dict(options)
+    robot, urdf = options.pop("robot", None), options.pop("urdf", None)
+    if robot is not None and urdf is not None:
+        raise InvalidParameterError("arm", f"robot {robot!r} and urdf {urdf!r}", "one of robot and urdf")
+    if urdf is not None:
+        return Arm.from_urdf(urdf, **options)
+    return Arm.from_robot(robot or "irb4600", **options)
 
 
 def _scenario(values: dict[str, Any]) -> Scenario:
     from .scenarios import Scenario
 
     preset = values.pop("preset", None)
+    offset = values.get("joint_offset_deg")
+    if offset is not None and np.ndim(offset) == 0:  # one number: every joint of the scenario's arm
+        q_start = values.get("q_start_deg")
+        if q_start is None and preset is not None:
+            q_start = _scenarios.get(preset).q_start
+        values["joint_offset_deg"] = np.full(6 if q_start is None else len(q_start), offset)
     base = _scenarios.get(preset) if preset is not None else None
     required = ("q_start_deg", "q_target_deg", "markers_O")
     missing = [k for k in required if k not in values]
@@ -351,16 +477,30 @@ def parse_config(
     run = _table(data, "run", _run_keys())
     if "duration" in run and run["duration"] <= 0.0:
         raise ConfigError("run.duration", run["duration"], "a finite number > 0 s")
+    seed = scenario_values.pop("seed", None)
+    if seed is not None and (seed < 0 or scenario_values):
+        raise ConfigError(
+            "scenario.seed",
+            seed,
+            "an integer >= 0, alone in [scenario] (the seeded scenario of the [arm], scenarios.for_arm)"
+            + (f"; remove {', '.join(sorted(scenario_values))}" if scenario_values else ""),
+        )
+    arm = _table(data, "arm", _arm_keys())
+    if "robot" in arm and "urdf" in arm:
+        raise ConfigError("arm.urdf", arm["urdf"], f"no urdf with arm.robot = {arm['robot']!r}: one of them")
+    if "urdf" in arm and source != "<dict>":
+        arm["urdf"] = str(Path(source).parent / arm["urdf"])
     return RunConfig(
-        scenario=_scenario(scenario_values) if "scenario" in data else None,
+        scenario=_scenario(scenario_values) if "scenario" in data and seed is None else None,
         settings=_settings(settings_values, _choice(*SETTINGS_PRESETS)("settings_preset", settings_preset)),
         controller=run.get("controller"),
         plant=run.get("plant"),
         adaptive=run.get("adaptive"),
         duration=run.get("duration"),
         camera_options=_table(data, "camera", _CAMERA_KEYS),
-        arm_options=_table(data, "arm", _ARM_KEYS),
+        arm_options=arm,
         source=source,
+        scenario_seed=seed,
     )
 
 

@@ -391,6 +391,18 @@ FOR_ARM_DEPTHS = (0.5, 0.6, 0.7)  # [m] markers of `for_arm` along MARKER_RAYS_X
 FOR_ARM_MIN_SIGMA = 0.05  # smallest singular value of J_C (6, n) accepted at the start and target
 
 
+def _home_of(arm: Any, home: np.ndarray) -> np.ndarray:
+    """The robot's home configuration on ``arm``'s joints: a joint locked on request drops its entry."""
+    if home.shape == (int(arm.nq),):
+        return home
+    from .model.arm import Arm
+
+    names = Arm.from_robot(arm.robot).joint_names  # the joints the home configuration is of
+    if len(names) != len(home) or not set(arm.joint_names) <= set(names):
+        return home  # another chain (e.g. another camera frame): as_array names the mismatch
+    return home[[names.index(j) for j in arm.joint_names]]
+
+
 def for_arm(
     arm: Any,
     seed: int = 0,
@@ -440,7 +452,7 @@ def for_arm(
             raise InvalidParameterError(
                 "q_center", None, f"a configuration ({n},): the arm has no home configuration"
             )
-        q_center = get(arm.robot).q_home
+        q_center = _home_of(arm, np.asarray(get(arm.robot).q_home, dtype=float))
     q_center = as_array(q_center, "q_center", (n,))
     camera = default_camera() if camera is None else camera
     periodic = np.asarray(getattr(arm, "periodic", np.ones(n)), dtype=bool)

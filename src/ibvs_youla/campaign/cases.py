@@ -7,26 +7,32 @@ break its rules and draws again from the same stream (the number of draws is det
 
 Families (:data:`FAMILIES`):
 
-* ``"arm-physical"`` — the IRB 4600: a target configuration within the joint limits shrunk by
-  :data:`LIMIT_MARGIN` of each range (joints 4 and 6 within +-180 deg), |q5| >= 10 deg from the
-  wrist singularity (ERRATA 7) and the camera Jacobian's smallest singular value >=
-  :data:`MIN_JACOBIAN_SIGMA` at both ends; a start configuration up to ``difficulty`` x
-  :data:`MAX_JOINT_STEP_DEG` per joint away; three markers placed along random rays of the
-  target camera (normalized coordinates within +-0.35, depths 1.5-3.5 m), kept only if all three
-  are in view (in front, inside the sensor, within the depth range) at the start and the target.
+* ``"arm-physical"`` — on the campaign's arm (default the IRB 4600; any arm of n >= 6 joints,
+  ``arm=``): a target configuration within the arm's joint limits shrunk by :data:`LIMIT_MARGIN`
+  of each range (a joint that turns more than one turn, such as the IRB 4600's joints 4 and 6
+  (+-400 deg) or a continuous joint, within +-180 deg), away from singularities: the arm's camera
+  Jacobian's smallest singular value >= :data:`MIN_JACOBIAN_SIGMA` at both ends and, on an arm
+  with a spherical wrist (``arm.ik_method == "spherical-wrist"``: the IRB 4600), |q5| >=
+  :data:`WRIST_MARGIN_DEG` from the wrist singularity (ERRATA 7); a start configuration up to
+  ``difficulty`` x :data:`MAX_JOINT_STEP_DEG` per joint away (prismatic joints
+  :data:`MAX_PRISMATIC_STEP_M`); three markers placed along random rays of the target camera
+  (normalized coordinates within +-0.35, depths 1.5-3.5 m), kept only if all three are in view
+  (in front, inside the sensor, within the depth range) at the start and the target. On the
+  IRB 4600 these are the rules of every campaign stored so far (its cases are the same bits).
 * ``"arm-virtual"`` — the same configurations, markers anywhere in a box in front of the arm
   (x 1-4 m, y -2-2 m, z -0.5-2 m), projected whatever their depth sign, as the paper's virtual
   points (ERRATA 13).
 * ``"arm-eye-to-hand"`` / ``"arm-eye-in-hand"`` — one draw, two mountings
-  (:func:`ibvs_youla.scenarios.mount_pair` on the IRB 4600, the draw of case k from its own
-  stream): a target configuration within +-10 deg of the arm's home configuration, a start up to
-  ``difficulty`` x :data:`MOUNT_STEP_DEG` per joint away; eye-to-hand, a camera fixed in front of
-  the target tool (0.85 m, level, facing the arm) and three markers on the flange where it sees
-  them at 0.6-0.8 m along :data:`~ibvs_youla.scenarios.EYE_TO_HAND_RAYS_XY`; eye-in-hand, the arm's
-  own camera and the markers fixed in the base where it sees the same image at the target. Case k
-  of both families is the same draw, kept only if both mountings keep every marker in view along
-  the joint-space path and the camera Jacobian's smallest singular value >= 0.05 at both ends:
-  matched cases. The mount is in each eye-to-hand spec's scenario (``mount``, ``markers_E``).
+  (:func:`ibvs_youla.scenarios.mount_pair` on the campaign's arm, default the IRB 4600; the draw of
+  case k from its own stream): a target configuration within +-10 deg of the arm's home
+  configuration, a start up to ``difficulty`` x :data:`MOUNT_STEP_DEG` per joint away; eye-to-hand,
+  a camera fixed in front of the target tool (0.85 m, level, facing the arm) and three markers on
+  the flange where it sees them at 0.6-0.8 m along
+  :data:`~ibvs_youla.scenarios.EYE_TO_HAND_RAYS_XY`; eye-in-hand, the arm's own camera and the
+  markers fixed in the base where it sees the same image at the target. Case k of both families is
+  the same draw, kept only if both mountings keep every marker in view along the joint-space path
+  and the camera Jacobian's smallest singular value >= 0.05 at both ends: matched cases. The mount
+  is in each eye-to-hand spec's scenario (``mount``, ``markers_E``).
 * ``"free-planar"`` / ``"free-nonplanar"`` — a camera without an arm in front of a 0.2 m square
   (four points) or of the square plus two points 0.1 m off its plane; the target camera 0.75 m
   in front, facing it (ViSP's tutorial geometry); the start a rotation about a random axis by
@@ -75,6 +81,7 @@ __all__ = [
     "LIMIT_MARGIN",
     "MAX_DIFFICULTY",
     "MAX_JOINT_STEP_DEG",
+    "MAX_PRISMATIC_STEP_M",
     "MAX_ROLL_DEG",
     "MAX_ROTATION_DEG",
     "MAX_SEED",
@@ -88,6 +95,7 @@ __all__ = [
     "SCENE_FAMILIES",
     "TEXTURED_ROTATION_DEG",
     "TEXTURED_TRANSLATION_M",
+    "WRIST_MARGIN_DEG",
     "Case",
     "generate_cases",
 ]
@@ -95,9 +103,10 @@ __all__ = [
 SCENE_FAMILIES = ("free-textured",)  # their scenarios carry a scene (a textured plane)
 LIMIT_MARGIN = 0.1  # of each joint's range, kept clear at both ends
 WRIST_MARGIN_DEG = 10.0  # |q5| >= this [deg]
-MIN_JACOBIAN_SIGMA = 0.05  # smallest singular value of the 6x6 LOCAL camera Jacobian (m/rad and 1)
+MIN_JACOBIAN_SIGMA = 0.05  # smallest singular value of the 6 x n LOCAL camera Jacobian (m/rad and 1)
 MAX_JOINT_STEP_DEG = 30.0  # per joint at difficulty 1 [deg]
 MOUNT_STEP_DEG = 5.0  # the mount families' start offset per joint at difficulty 1 [deg]
+MAX_PRISMATIC_STEP_M = 0.05  # per prismatic joint at difficulty 1 [m]
 MAX_ROTATION_DEG = 90.0  # free camera, at difficulty 1 [deg]
 MAX_TRANSLATION_M = 0.3  # free camera, at difficulty 1 [m]
 MIN_ROLL_DEG, MAX_ROLL_DEG = 90.0, 180.0  # free-roll: about the optical axis, at difficulty 1 [deg]
@@ -148,13 +157,23 @@ def _rotvec_matrix(rotvec: np.ndarray) -> np.ndarray:
     return Rotation.from_rotvec(rotvec).as_matrix()
 
 
-def generate_cases(family: str, n: int, seed: int, *, difficulty: float = 1.0) -> tuple[Case, ...]:
+def generate_cases(
+    family: str, n: int, seed: int, *, difficulty: float = 1.0, arm: Any = None
+) -> tuple[Case, ...]:
     """``n`` cases of ``family`` from ``seed`` (module docstring).
+
+    Args:
+        family: A name of :data:`FAMILIES`.
+        n: Number of cases (>= 1).
+        seed: The campaign's seed.
+        difficulty: The difficulty knob (module docstring).
+        arm: The arm of an arm family (an :class:`~ibvs_youla.model.arm.Arm`); default the IRB
+            4600. Ignored by the free families.
 
     Raises:
         InvalidParameterError: an unknown family, ``n`` < 1, a seed that is not an integer in
-            [0, :data:`MAX_SEED`], a difficulty outside (0, :data:`MAX_DIFFICULTY`], or a case
-            the rules reject :data:`MAX_DRAWS` times.
+            [0, :data:`MAX_SEED`], a difficulty outside (0, :data:`MAX_DIFFICULTY`], an ``arm``
+            that is not an Arm, or a case the rules reject :data:`MAX_DRAWS` times.
     """
     one_of(family, "family", FAMILIES)
     integer(n, "n", low=1)
@@ -162,16 +181,17 @@ def generate_cases(family: str, n: int, seed: int, *, difficulty: float = 1.0) -
     difficulty = real(difficulty, "difficulty", low=0.0, low_open=True, high=MAX_DIFFICULTY)
     fits_in_memory(4096.0 * n, "n", n, "fewer cases")  # a case holds its scenario and seed, ~4 kB
     streams = np.random.SeedSequence(int(seed)).spawn(int(n))
-    if family in MOUNT_FAMILIES:
+    if family in MOUNT_FAMILIES or family in ARM_FAMILIES:
+        from .._validation import instance
         from ..model.arm import Arm
 
-        arm = Arm.irb4600()
+        arm = Arm.irb4600() if arm is None else instance(arm, "arm", Arm, "an Arm, or None (the IRB 4600)")
+    if family in MOUNT_FAMILIES:
         return tuple(_mount_case(family, k, s, difficulty, arm) for k, s in enumerate(streams))
     if family in ARM_FAMILIES:
-        from ..model.arm import Arm
         from ..model.camera import default_camera
 
-        arm, camera = Arm.irb4600(), default_camera()
+        camera = default_camera()
         return tuple(
             _arm_case(family, k, np.random.default_rng(s), difficulty, arm, camera)
             for k, s in enumerate(streams)
@@ -194,16 +214,24 @@ def _undrawable(family: str, index: int, difficulty: float) -> InvalidParameterE
 
 # ----------------------------------------------------------------------------- arm families
 def _joint_box(arm: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The joint limits shrunk by :data:`LIMIT_MARGIN`; a joint of more than one turn kept to +-180 deg."""
     lo, hi = np.asarray(arm.q_min, dtype=float), np.asarray(arm.q_max, dtype=float)
     lo, hi = lo.copy(), hi.copy()
-    for j in (3, 5):  # joints 4 and 6 turn +-400 deg: keep one turn
-        lo[j], hi[j] = max(lo[j], -math.pi), min(hi[j], math.pi)
+    for j in range(arm.nq):  # e.g. the IRB 4600's joints 4 and 6 (+-400 deg), a continuous joint
+        if arm.periodic[j] and hi[j] - lo[j] > 2.0 * math.pi:
+            lo[j], hi[j] = max(lo[j], -math.pi), min(hi[j], math.pi)
     margin = LIMIT_MARGIN * (hi - lo)
     return lo + margin, hi - margin
 
 
+def _joint_step(arm: Any, difficulty: float) -> np.ndarray:
+    """The start's largest offset per joint [rad or m] (module docstring)."""
+    revolute, prismatic = math.radians(MAX_JOINT_STEP_DEG), MAX_PRISMATIC_STEP_M
+    return difficulty * np.where(np.asarray(arm.periodic) > 0.0, revolute, prismatic)
+
+
 def _well_conditioned(arm: Any, q: np.ndarray) -> bool:
-    if abs(q[4]) < math.radians(WRIST_MARGIN_DEG):
+    if arm.ik_method == "spherical-wrist" and abs(q[4]) < math.radians(WRIST_MARGIN_DEG):
         return False
     return float(np.linalg.svd(arm.camera_jacobian(q), compute_uv=False)[-1]) >= MIN_JACOBIAN_SIGMA
 
@@ -217,10 +245,10 @@ def _arm_case(
     from ..simulation.sensor import MarkerSensor
 
     lo, hi = _joint_box(arm)
-    step = math.radians(MAX_JOINT_STEP_DEG) * difficulty
+    step, n = _joint_step(arm, difficulty), arm.nq
     for draw in range(1, MAX_DRAWS + 1):
-        q_target = lo + (hi - lo) * rng.random(6)
-        q_start = np.clip(q_target + step * rng.uniform(-1.0, 1.0, 6), lo, hi)
+        q_target = lo + (hi - lo) * rng.random(n)
+        q_start = np.clip(q_target + step * rng.uniform(-1.0, 1.0, n), lo, hi)
         if not (_well_conditioned(arm, q_target) and _well_conditioned(arm, q_start)):
             continue
         T_target, T_start = arm.camera_pose(q_target), arm.camera_pose(q_start)

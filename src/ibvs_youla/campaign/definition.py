@@ -26,6 +26,7 @@ from typing import Any
 
 from .._validation import integer, keywords_checked, one_of, positive, real
 from ..exceptions import InvalidParameterError
+from .arms import arm_from_record, arm_record
 from .cases import ARM_FAMILIES, FAMILIES, MAX_DIFFICULTY, MAX_SEED, SCENE_FAMILIES
 from .spec import CAMERA_KINDS, ExperimentSpec, camera_from_spec, method_label, parse_method, specs_for
 
@@ -77,12 +78,20 @@ class CampaignDefinition:
         controller_params: Method label -> further keyword parameters of ``controllers.make``.
         disturbances: Fields of ``Disturbances`` for every run (no seed), normalized to those
             that differ from the defaults (``{}``: none).
+        arm: The arm of an arm family: an :class:`~ibvs_youla.model.arm.Arm` or its record,
+            normalized to the record (:func:`~.arms.arm_record`: the arm's identity as plain
+            data); None, the default, is the IRB 4600 (the paper's arm, as every campaign stored
+            before arms were a parameter). Its cases are drawn for that arm (its limits and
+            singularities, :mod:`.cases`) and every spec holds the record.
 
     Raises:
         InvalidParameterError: any of the above out of range, an unknown controller or
             parameter, a family on a plant it cannot run on (module docstring), settings that
             ``SimulationSettings`` rejects, disturbances that ``Disturbances`` rejects, carry a
-            seed, or have nothing to act on (e.g. friction on the kinematic arm).
+            seed, or have nothing to act on (e.g. friction on the kinematic arm); an arm on a
+            free family, or an arm that is no Arm or record.
+        ModelLoadError: the record's robot description cannot be loaded (its URDF missing or
+            changed).
     """
 
     family: str
@@ -96,6 +105,7 @@ class CampaignDefinition:
     difficulty: float = 1.0
     controller_params: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     disturbances: Mapping[str, Any] | None = None
+    arm: Any = None
 
     def __post_init__(self) -> None:
         from .. import controllers as registry
@@ -184,6 +194,15 @@ class CampaignDefinition:
             )
             raise InvalidParameterError("plant", self.plant, f"{valid} family {self.family!r}")
         put("disturbances", self._checked_disturbances())
+        put("arm", arm_record(self.arm))
+        if self.arm is not None:
+            if not arm_family:
+                raise InvalidParameterError(
+                    "arm",
+                    self.arm.get("robot") or self.arm.get("urdf"),
+                    f"None for the free family {self.family!r}",
+                )
+            arm_from_record(self.arm)  # loads (a missing or changed URDF raises here)
         for label, (name, own) in zip(names, methods, strict=True):
             made = registry.make(name, **{**own, **params.get(label, {})})  # raises on unknown ones
             kind = made.command_type
@@ -254,6 +273,7 @@ class CampaignDefinition:
             "difficulty": self.difficulty,
             "controller_params": {k: dict(v) for k, v in self.controller_params.items()},
             **({"disturbances": dict(self.disturbances)} if self.disturbances else {}),
+            **({"arm": dict(self.arm)} if self.arm is not None else {}),
         }
 
     @classmethod
@@ -275,7 +295,8 @@ class CampaignDefinition:
         """One spec per (case, controller), cases outer."""
         from .cases import generate_cases
 
-        cases = generate_cases(self.family, self.cases, self.seed, difficulty=self.difficulty)
+        arm = arm_from_record(self.arm) if self.family in ARM_FAMILIES else None
+        cases = generate_cases(self.family, self.cases, self.seed, difficulty=self.difficulty, arm=arm)
         return specs_for(
             cases,
             self.controllers,
@@ -286,7 +307,12 @@ class CampaignDefinition:
             settings=self.settings,
             controller_params=self.controller_params,
             disturbances=self.disturbances,
+            arm=self.arm,
         )
+
+    def make_arm(self) -> Any:
+        """The :class:`~ibvs_youla.model.arm.Arm` of an arm family (:attr:`arm`), None for a free one."""
+        return arm_from_record(self.arm) if self.family in ARM_FAMILIES else None
 
 
 def methods_for_plant(plant: str, family: str | None = None) -> tuple[str, ...]:

@@ -125,10 +125,10 @@ class RobustnessStudy:
         """(value, its campaign) for every value, in the order of :attr:`values`."""
         base = CampaignDefinition.from_dict(self.campaign)
         stereo = dict(base.camera)["kind"] == "stereo"  # type: ignore[arg-type]
-        levels = AXES[self.axis].levels
+        levels, arm = AXES[self.axis].levels, base.make_arm()
         out = []
         for v in self.values:  # type: ignore[union-attr]
-            disturbances = levels(v, base.plant, stereo)  # type: ignore[arg-type]
+            disturbances = levels(v, base.plant, stereo, arm)  # type: ignore[arg-type]
             out.append((v, CampaignDefinition.from_dict({**self.campaign, "disturbances": disturbances})))
         return out
 

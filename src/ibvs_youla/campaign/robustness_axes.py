@@ -1,10 +1,11 @@
 """The axes of a robustness study: what a value of each means, as the disturbances it sets.
 
 :data:`AXES` maps each axis name to an :class:`Axis`: its quantity, default sweep, the check of
-its values, and ``levels(value, plant, stereo)``, the fields of
+its values, and ``levels(value, plant, stereo, arm=None)``, the fields of
 :class:`~ibvs_youla.simulation.disturbances.Disturbances` one value sets (only those that apply
-to the plant and camera). The levels of each axis (value 0 is undisturbed, except for
-``saturation``, whose ``inf`` is, and ``images``):
+to the plant and camera; ``arm`` is the campaign's arm, an
+:class:`~ibvs_youla.model.arm.Arm`, None for the IRB 4600). The levels of each axis (value 0 is
+undisturbed, except for ``saturation``, whose ``inf`` is, and ``images``):
 
 * ``noise``: Gaussian pixel noise sigma [px] on every image coordinate (the normalized camera
   of the free families maps 1 px to 1/800);
@@ -21,8 +22,8 @@ to the plant and camera). The levels of each axis (value 0 is undisturbed, excep
   N(0, (c mm)^2) per coordinate;
 * ``mismatch``: a level m >= 0 of the dynamic plant against the controller's model: link
   masses and inertias x (1 + m), Coulomb friction 2 m % of each joint's torque limit, viscous
-  friction 2 m % of it at the joint's speed limit (IRB 4600: joint 1 62 m N m and 20 m N m
-  s/rad); the dynamic plant only;
+  friction 2 m % of it at the joint's speed limit, the limits of the campaign's arm (IRB 4600:
+  joint 1 62 m N m and 20 m N m s/rad); the dynamic plant only;
 * ``latency``: k camera frames (integers); the default sweep reaches 300 frames (3 s at the arm's
   100 Hz) because the twist laws' gain lambda = 0.5 1/s keeps the delayed loop e_{k+1} = e_k -
   lambda T e_{k-d} stable up to lambda d T = pi / 2 (d T = 3.1 s), and a delay well inside that
@@ -48,15 +49,15 @@ __all__ = ["AXES", "IMAGE_BLUR_PX", "Axis", "value_label"]
 IMAGE_BLUR_PX = 1.0  # the images axis's blur [px]: a focused lens; blur barely moves a centroid
 
 
-def _noise(value: float, plant: str, stereo: bool) -> dict[str, Any]:
+def _noise(value: float, plant: str, stereo: bool, arm: Any = None) -> dict[str, Any]:
     return {"pixel_noise_px": value}
 
 
-def _images(noise_grey: float, plant: str, stereo: bool) -> dict[str, Any]:
+def _images(noise_grey: float, plant: str, stereo: bool, arm: Any = None) -> dict[str, Any]:
     return {"rendered_images": True, "image_blur_px": IMAGE_BLUR_PX, "image_noise_grey": noise_grey}
 
 
-def _calibration(c: float, plant: str, stereo: bool) -> dict[str, Any]:
+def _calibration(c: float, plant: str, stereo: bool, arm: Any = None) -> dict[str, Any]:
     errors: dict[str, Any] = {
         "focal_length_scale": 1.0 + 0.01 * c,
         "principal_point_offset_px": (2.0 * c, -2.0 * c),
@@ -70,10 +71,11 @@ def _calibration(c: float, plant: str, stereo: bool) -> dict[str, Any]:
     return errors
 
 
-def _mismatch(m: float, plant: str, stereo: bool) -> dict[str, Any]:
-    from ..model.arm import Arm
+def _mismatch(m: float, plant: str, stereo: bool, arm: Any = None) -> dict[str, Any]:
+    if arm is None:
+        from ..model.arm import Arm
 
-    arm = Arm.irb4600()
+        arm = Arm.irb4600()
     tau_max, dq_max = np.asarray(arm.tau_max), np.asarray(arm.dq_max)
     return {
         "plant_inertia_scale": 1.0 + m,
@@ -82,11 +84,11 @@ def _mismatch(m: float, plant: str, stereo: bool) -> dict[str, Any]:
     }
 
 
-def _latency(k: float, plant: str, stereo: bool) -> dict[str, Any]:
+def _latency(k: float, plant: str, stereo: bool, arm: Any = None) -> dict[str, Any]:
     return {"latency_frames": int(k)}
 
 
-def _saturation(fraction: float, plant: str, stereo: bool) -> dict[str, Any]:
+def _saturation(fraction: float, plant: str, stereo: bool, arm: Any = None) -> dict[str, Any]:
     return {} if math.isinf(fraction) else {"limit_scale": fraction}
 
 
@@ -98,7 +100,7 @@ class Axis:
         name: The axis name (``--axis``).
         quantity: What a value is, with its unit (plot and table label).
         defaults: The default sweep.
-        levels: ``levels(value, plant, stereo) -> Disturbances fields`` of one value.
+        levels: ``levels(value, plant, stereo, arm=None) -> Disturbances fields`` of one value.
         integer: Values are integers (frames).
         positive: Values are > 0 (``inf`` allowed: off); otherwise >= 0 and finite.
         dynamic_only: Acts on the dynamic plant only.
@@ -107,7 +109,7 @@ class Axis:
     name: str
     quantity: str
     defaults: tuple[float, ...]
-    levels: Callable[[float, str, bool], dict[str, Any]]
+    levels: Callable[[float, str, bool, Any], dict[str, Any]]
     integer: bool = False
     positive: bool = False
     dynamic_only: bool = False

@@ -5,32 +5,23 @@ camera and settings from the spec, simulates, and returns :func:`~.metrics.row_f
 A run that raises (a bad spec, a diverging plant, a controller refusing its task) is not an
 exception for the campaign: its row has the outcome ``"error"`` (or ``"diverged"``, measured
 on the partial record) and the message; so has a spec that does not read (malformed JSON, or
-not a spec: :func:`~.metrics.unreadable_spec_row`). The arm (the IRB 4600) is built once per process and
-thread (its Pinocchio data is per thread already; building it costs ~50 ms).
+not a spec: :func:`~.metrics.unreadable_spec_row`). The arm is the spec's (its record, ``spec.arm``;
+none: the IRB 4600), rebuilt by :func:`~.arms.arm_from_record` once per record, process and
+thread (its Pinocchio data is per thread already; building it costs 50-300 ms); a record whose
+robot description cannot be loaded is an ``"error"`` row.
 """
 
 from __future__ import annotations
 
-import threading
 import time
 from typing import Any
 
 from ..exceptions import SimulationDivergedError
+from .arms import arm_from_record
 from .metrics import error_row, row_from_result, unreadable_spec_row
 from .spec import ExperimentSpec
 
 __all__ = ["run_spec", "run_spec_with_result"]
-
-_LOCAL = threading.local()
-
-
-def _arm() -> Any:
-    arm = getattr(_LOCAL, "arm", None)
-    if arm is None:
-        from ..model.arm import Arm
-
-        arm = _LOCAL.arm = Arm.irb4600()
-    return arm
 
 
 def run_spec(spec: ExperimentSpec | str) -> dict[str, Any]:
@@ -54,7 +45,7 @@ def run_spec_with_result(spec: ExperimentSpec | str) -> tuple[dict[str, Any], An
             return unreadable_spec_row(spec, err, time.perf_counter() - t0), None
     arm = None
     try:
-        arm = None if spec.plant == "free-camera" else _arm()
+        arm = None if spec.plant == "free-camera" else arm_from_record(spec.arm or None)
         kwargs = spec.build()
         result = simulate(**kwargs, arm=arm)
     except SimulationDivergedError as err:

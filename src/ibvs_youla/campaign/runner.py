@@ -142,7 +142,8 @@ def check_runnable(definition: CampaignDefinition) -> list[ExperimentSpec]:
     first = specs[0].scenario  # its markers: in the base (markers_O), or on the tool eye-to-hand (markers_E)
     n_points = len(first["markers_O"] if first.get("markers_O") is not None else first["markers_E"])
     per_point = 3 if dict(definition.camera)["kind"] == "stereo" else 2  # type: ignore[arg-type]
-    signals = {"camera_twist": (6,)} if free else {name: (6,) for name in ("q", "q_true", "dq", "command")}
+    n = 6 if free else definition.make_arm().nq  # joints of the campaign's arm
+    signals = {"camera_twist": (6,)} if free else {name: (n,) for name in ("q", "q_true", "dq", "command")}
     n_rows, n_frames = ticks / settings.record_every + 2, ticks / (1 if free else settings.camera_every) + 1
     fits_in_memory(
         ResultRecorder.estimate_bytes(n_rows, n_frames, per_point * n_points, n_points, signals),

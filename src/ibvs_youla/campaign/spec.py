@@ -253,6 +253,9 @@ class ExperimentSpec:
         disturbances: Fields of ``Disturbances`` that differ from the defaults, without a
             seed (the case's is :func:`disturbance_seed`); empty: none, and no entry in the
             JSON or the key.
+        arm: The arm's record (:func:`~.arms.arm_record`: its identity as plain data, so that the
+            runs of two arms never share a key); empty: the IRB 4600, and no entry in the JSON or
+            the key (the keys of every campaign stored before arms were a parameter).
     """
 
     family: str
@@ -267,6 +270,7 @@ class ExperimentSpec:
     settings: Mapping[str, Any] = field(default_factory=dict)
     difficulty: Mapping[str, Any] = field(default_factory=dict)
     disturbances: Mapping[str, Any] = field(default_factory=dict)
+    arm: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def method(self) -> str:
@@ -278,7 +282,17 @@ class ExperimentSpec:
             object.__setattr__(self, name, integer(getattr(self, name), name, low=0, high=MAX_SEED))
         for name in ("family", "controller", "plant"):
             object.__setattr__(self, name, text(getattr(self, name), name, empty=False))
-        for name in ("scenario", "controller_params", "camera", "settings", "difficulty", "disturbances"):
+        if self.arm is None:
+            object.__setattr__(self, "arm", {})
+        for name in (
+            "scenario",
+            "controller_params",
+            "camera",
+            "settings",
+            "difficulty",
+            "disturbances",
+            "arm",
+        ):
             if not isinstance(getattr(self, name), Mapping):
                 raise InvalidParameterError(name, getattr(self, name), "a mapping (JSON object)")
             object.__setattr__(self, name, _plain(getattr(self, name)))
@@ -294,10 +308,11 @@ class ExperimentSpec:
         return hash(self.key)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain data (the JSON of :meth:`to_json`); ``disturbances`` only when there are some."""
+        """Plain data (the JSON of :meth:`to_json`); ``disturbances`` and ``arm`` only when there are some."""
         data = _plain(asdict(self))
-        if not data["disturbances"]:
-            del data["disturbances"]
+        for name in ("disturbances", "arm"):
+            if not data[name]:
+                del data[name]
         return data
 
     def to_json(self) -> str:
@@ -390,6 +405,7 @@ def specs_for(
     settings: Mapping[str, Any] | None = None,
     controller_params: Mapping[str, Mapping[str, Any]] | None = None,
     disturbances: Mapping[str, Any] | None = None,
+    arm: Mapping[str, Any] | None = None,
 ) -> list[ExperimentSpec]:
     """One spec per (case, method), cases outer: every method runs on the same cases.
 
@@ -405,6 +421,7 @@ def specs_for(
         controller_params: Label -> further parameters (added to those of the label).
         disturbances: Fields of ``Disturbances`` for every run (no seed; each case is seeded
             from ``seed``).
+        arm: The arm's record (:func:`~.arms.arm_record`); None: the IRB 4600.
     """
     params = controller_params or {}
     methods = [(label, *parse_method(label)) for label in controllers]
@@ -422,6 +439,7 @@ def specs_for(
             settings=settings or {},
             difficulty=case.difficulty,
             disturbances=disturbances or {},
+            arm=arm or {},
         )
         for case in cases
         for label, name, own in methods

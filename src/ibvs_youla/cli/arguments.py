@@ -16,6 +16,7 @@ import math
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 from .. import catalog
 
@@ -23,6 +24,7 @@ __all__ = [
     "axes_pair",
     "count",
     "folder_path",
+    "locked_joint",
     "method_list",
     "name_list",
     "non_negative",
@@ -30,6 +32,8 @@ __all__ = [
     "scheduler_address",
     "seed",
     "suggestion",
+    "transform",
+    "transform_matrix",
     "value_list",
 ]
 
@@ -216,3 +220,46 @@ def axes_pair(text: str) -> tuple[str, str]:
             f"{', '.join(catalog.MAP_AXES)}"
         )
     return axes  # type: ignore[return-value]
+
+
+def transform(text: str) -> tuple[float, ...]:
+    """``--T-F-C``: ``X,Y,Z,RX,RY,RZ`` (translation [m], rotation vector [deg]) or 16 numbers row by row.
+
+    Returns the 6 or 16 numbers; :func:`transform_matrix` makes the 4x4 transform of them once
+    the arm is built (this module imports no numpy: ``--help`` answers at once).
+    """
+    values = tuple(_number(v) for v in text.split(","))
+    if len(values) not in (6, 16) or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(
+            f"received {text!r}; valid: X,Y,Z,RX,RY,RZ (translation [m], rotation vector [deg]) or the 16 "
+            "entries of a 4x4 transform row by row, finite numbers"
+        )
+    return values
+
+
+def transform_matrix(values: tuple[float, ...]) -> Any:
+    """The 4x4 transform of :func:`transform`'s numbers (rotation vector by SciPy; a full 4x4 as given).
+
+    A 4x4 given in full is checked for rigidity by the arm.
+    """
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    if len(values) == 16:
+        return np.array(values, dtype=float).reshape(4, 4)
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_rotvec(values[3:], degrees=True).as_matrix()
+    T[:3, 3] = values[:3]
+    return T
+
+
+def locked_joint(text: str) -> tuple[str, float]:
+    """``--locked-joint NAME=VALUE``: a joint name and a finite value [rad or m]."""
+    name, sep, value = text.partition("=")
+    number = _number(value)
+    if not sep or not name.strip() or not math.isfinite(number):
+        raise argparse.ArgumentTypeError(
+            f"received {text!r}; valid: NAME=VALUE, a joint of the robot and a finite number [rad or m], "
+            "e.g. panda_joint7=0.785"
+        )
+    return name.strip(), number

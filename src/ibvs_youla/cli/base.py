@@ -1,4 +1,4 @@
-"""What every subcommand shares: the program name, the usage error, one-line messages, --config, --out."""
+"""What every subcommand shares: the program name, the usage error, one-line messages, --config, the arm."""
 
 from __future__ import annotations
 
@@ -36,6 +36,64 @@ def load_optional_config(path: Path | None, settings_preset: str = "default") ->
     from ..config import load_config
 
     return load_config(path, settings_preset=settings_preset)
+
+
+# the arm's options -> their flags (parser._add_arm_options)
+ARM_FLAGS = {
+    "robot": "--robot",
+    "urdf": "--urdf",
+    "camera_frame": "--camera-frame",
+    "T_F_C": "--T-F-C",
+    "locked_joints": "--locked-joint",
+}
+
+
+def arm_flags(args: argparse.Namespace) -> dict[str, Any]:
+    """The arm options given by flags (``--robot``, ``--urdf``, ...), as ``config.make_arm`` takes them."""
+    out: dict[str, Any] = {}
+    for name in ARM_FLAGS:
+        value = getattr(args, name, None)
+        if value is not None:
+            out[name] = dict(value) if name == "locked_joints" else str(value) if name == "urdf" else value
+    return out
+
+
+def resolve_arm(args: argparse.Namespace, cfg: Any = None) -> Any:
+    """The arm of the flags over the ``--config`` file's ``[arm]`` (default: the IRB 4600).
+
+    ``--robot`` or ``--urdf`` replaces the file's whole ``[arm]`` table (its mount and terms are
+    another arm's); the mount flags alone override its keys.
+
+    Raises:
+        UsageError: the arm cannot be built from the flags (a URDF that cannot be loaded, a camera
+            frame or locked joint it does not have: the message lists the candidates), naming the
+            flag; an error of the file's ``[arm]`` is the ``ConfigError`` naming its key.
+    """
+    from ..config import arm_option_at_fault, make_arm
+    from ..exceptions import IbvsYoulaError, ModelLoadError
+    from .arguments import transform_matrix
+
+    flags = arm_flags(args)
+    if "T_F_C" in flags:
+        flags["T_F_C"] = transform_matrix(flags["T_F_C"])
+    file_options = {} if cfg is None else dict(cfg.arm_options)
+    if "robot" in flags or "urdf" in flags:  # another arm: the file's [arm] (its mount, its terms) is not its
+        file_options = {}
+    from_file = sorted(set(file_options) - set(flags))
+    options = {**file_options, **flags}
+    try:
+        return make_arm(options)
+    except ModelLoadError as err:
+        key = arm_option_at_fault(err, options)
+        if key not in flags and cfg is not None:
+            return cfg.make_arm(**flags)  # the file's key is at fault: its ConfigError names it
+        raise UsageError(f"argument {ARM_FLAGS.get(key, '--robot')}: {one_line(err)}") from None
+    except IbvsYoulaError as err:
+        if not isinstance(err, ValueError):
+            raise
+        if cfg is not None and from_file:
+            return cfg.make_arm(**flags)  # raises the ConfigError of the file's key, if it is one
+        raise UsageError(f"arm ({', '.join(ARM_FLAGS[k] for k in flags)}): {one_line(err)}") from None
 
 
 def _flag_message(err: Any, args: argparse.Namespace, flags: Mapping[str, str]) -> str | None:

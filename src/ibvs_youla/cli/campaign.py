@@ -23,7 +23,7 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-from .base import PROG, UsageError, flag_errors
+from .base import ARM_FLAGS, PROG, UsageError, arm_flags, flag_errors, resolve_arm
 
 # library argument name -> flag, for the refusals the campaign makes only when it runs
 FLAGS = {
@@ -52,6 +52,7 @@ def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
     names = args.controllers
     if names is None:
         names = methods_for_plant(plant, args.family)
+    arm = campaign_arm(args)
     definition = CampaignDefinition(
         family=args.family,
         cases=args.cases,
@@ -61,8 +62,28 @@ def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
         camera=args.camera,
         duration=args.duration,
         difficulty=args.difficulty,
+        arm=arm,
     )
     return lambda: _run(args, definition)
+
+
+def campaign_arm(args: argparse.Namespace) -> Any:
+    """The arm of ``--robot``/``--urdf`` and the mount options, None without them (the IRB 4600).
+
+    Raises:
+        UsageError: an arm for a free family, or one that cannot be built (:func:`.base.resolve_arm`).
+    """
+    from ..catalog import ARM_FAMILIES
+
+    given = [ARM_FLAGS[k] for k in arm_flags(args)]
+    if not given:
+        return None
+    if args.family not in ARM_FAMILIES:
+        raise UsageError(
+            f"argument {given[0]}: the family {args.family!r} is the free camera's, without an arm; valid: "
+            f"an arm family ({', '.join(ARM_FAMILIES)}) with an arm"
+        )
+    return resolve_arm(args)
 
 
 def quiet_client_log() -> None:
@@ -105,10 +126,12 @@ def _run(args: argparse.Namespace, definition: Any) -> int:
         return 130
     d = definition
     where = f"scheduler {args.scheduler}" if args.scheduler else f"{summary.workers} local workers"
+    on = "" if d.arm is None else f" of the {d.arm.get('robot') or d.arm.get('urdf')}"
     if args.workers == 0:
         where = "this process"
     print(
-        f"{d.family}: {d.cases} cases x {len(d.controllers)} methods = {d.runs} runs on the {d.plant} plant "
+        f"{d.family}: {d.cases} cases x {len(d.controllers)} methods = {d.runs} runs on the {d.plant} "
+        f"plant{on} "
         f"({d.camera['kind']} camera, {d.duration:g} s, seed {d.seed})"  # type: ignore[index]
     )
     if summary.ran:

@@ -9,6 +9,10 @@ camera, the 120 x 90 px camera of :func:`~ibvs_youla.scenarios.textured_camera` 
 every controller that commands a camera twist, photometric servoing included). ``--suite
 gans2003`` runs every task of :mod:`ibvs_youla.analysis.suites`. The metrics are those of
 :mod:`ibvs_youla.analysis.compare`.
+``--robot NAME`` or ``--urdf FILE`` (with the mount options) runs the arm scenario on that arm:
+without ``--scenario``, its seeded scenario (:func:`ibvs_youla.scenarios.for_arm`, ``--seed``);
+the named scenarios are the IRB 4600's, and the suite's tasks and the textured plane are the free
+camera's, so those refuse another arm (exit 2).
 A ``--duration`` or ``--camera-rate`` that the simulator refuses stops the comparison before
 any method runs (exit 2), rather than giving every method a 'rejected' row.
 """
@@ -22,7 +26,7 @@ from typing import Any
 
 from .. import catalog
 from ..files import write_json, write_text
-from .base import UsageError, flag_errors
+from .base import ARM_FLAGS, UsageError, arm_flags, flag_errors, resolve_arm
 
 FLAGS = {
     "duration": "--duration",
@@ -34,7 +38,14 @@ FLAGS = {
 
 
 def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
-    """Check the plant against the scenario or suite; return the function that runs the comparison."""
+    """Check the plant and arm against the scenario or suite; return the function that runs the comparison."""
+    given = [ARM_FLAGS[k] for k in arm_flags(args)]
+    if args.scenario is None and args.suite is None and not given:
+        raise UsageError(
+            "one of the arguments --scenario --suite is required (or --robot NAME / --urdf FILE: the arm's "
+            "seeded scenario)"
+        )
+    free = args.suite is not None or args.scenario in (*catalog.SUITE_TASKS, catalog.TEXTURED_SCENARIO)
     on_free_camera = args.suite is not None or args.scenario in catalog.SUITE_TASKS
     if on_free_camera and args.plant not in (None, "free-camera"):
         what = f"--suite {args.suite}" if args.suite is not None else f"the suite's task {args.scenario}"
@@ -42,15 +53,32 @@ def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
             f"argument --plant: received {args.plant!r}; {what} runs on the free camera: valid values are "
             "free-camera (the default)"
         )
+    if free and given:
+        what = f"--suite {args.suite}" if args.suite is not None else f"--scenario {args.scenario}"
+        raise UsageError(
+            f"argument {given[0]}: {what} runs on the free camera, without an arm; valid: an arm scenario "
+            f"({', '.join(catalog.SCENARIOS)} on the IRB 4600, or no --scenario: the arm's seeded scenario)"
+        )
+    if args.seed is not None and (args.scenario is not None or args.suite is not None):
+        raise UsageError(
+            "argument --seed: the seed of the arm's scenario; valid only without --scenario and --suite"
+        )
+    arm = None if free else resolve_arm(args)
+    if arm is not None and args.scenario is not None and arm.robot != "irb4600":
+        raise UsageError(
+            f"argument --scenario: received {args.scenario!r}, a scenario of the IRB 4600 (its joint "
+            f"angles and markers); for the arm {arm.name!r} leave --scenario out: its seeded "
+            "scenario (--seed)"
+        )
 
     def run() -> int:
         with flag_errors(args, FLAGS):
-            return _run_suite(args) if args.suite is not None else _run_scenario(args)
+            return _run_suite(args) if args.suite is not None else _run_scenario(args, arm)
 
     return run
 
 
-def _run_scenario(args: argparse.Namespace) -> int:
+def _run_scenario(args: argparse.Namespace, arm: Any) -> int:
     from .. import controllers, scenarios
     from ..analysis import suites
     from ..analysis.compare import compare
@@ -74,16 +102,22 @@ def _run_scenario(args: argparse.Namespace) -> int:
         duration = args.duration or suites.DURATION_S
         names = args.controllers or _without_image_methods(suites.twist_controllers())
     else:
-        scenario = scenarios.get(name)
-        plant = args.plant or "dynamic"
         camera = default_camera()
+        scenario = (
+            scenarios.get(name) if name is not None else scenarios.for_arm(arm, args.seed or 0, camera=camera)
+        )
+        name = scenario.name
+        plant = args.plant or "dynamic"
         settings = None if args.camera_rate is None else SimulationSettings(camera_rate_hz=args.camera_rate)
         duration = args.duration or 10.0
         names = args.controllers or _without_image_methods(controllers.names())
-    comparison = compare(scenario, names, plant=plant, camera=camera, duration=duration, settings=settings)
+    comparison = compare(
+        scenario, names, plant=plant, camera=camera, duration=duration, settings=settings, arm=arm
+    )
     out = args.out or Path("results") / "compare" / name
     paths = save_comparison(comparison, out, plots=not args.no_plots)
-    print(f"{name} on the {plant} plant, {duration:g} s simulated")
+    on = "" if arm is None or arm.robot == "irb4600" else f" of the {arm.name}"
+    print(f"{name} on the {plant} plant{on}, {duration:g} s simulated")
     print(comparison.table_markdown(), end="")
     print(f"wrote {', '.join(_relative(p, out) for p in paths.values())} in {out}")
     return 0

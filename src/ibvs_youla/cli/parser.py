@@ -4,7 +4,8 @@ This module imports only the standard library, :mod:`ibvs_youla.catalog` (the na
 choices list) and :mod:`.arguments` (the value types), so that ``--help`` and a bad argument
 answer at once. Each subcommand names the module that runs it (``handler``), imported only
 once the arguments have parsed. Options that several commands share are added by one function
-each (:func:`_add_run_options`, :func:`_add_campaign_options`), the place for a new shared option.
+each (:func:`_add_run_options`, :func:`_add_campaign_options`, :func:`_add_arm_options`), the place
+for a new shared option.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from .arguments import (
     axes_pair,
     count,
     folder_path,
+    locked_joint,
     method_list,
     name_list,
     non_negative,
@@ -25,6 +27,7 @@ from .arguments import (
     scheduler_address,
     seed,
     suggestion,
+    transform,
     value_list,
 )
 from .base import PROG, UsageError
@@ -237,7 +240,11 @@ def _add_reproduce(p: argparse.ArgumentParser) -> None:
 def _add_run_options(p: argparse.ArgumentParser) -> None:
     """One run's options (``simulate``, ``view``): scenario, config, controller, plant, loop, duration."""
     p.add_argument(
-        "--scenario", choices=catalog.SCENARIOS, metavar="NAME", help=f"one of {', '.join(catalog.SCENARIOS)}"
+        "--scenario",
+        choices=catalog.SCENARIOS,
+        metavar="NAME",
+        help=f"one of {', '.join(catalog.SCENARIOS)} (the IRB 4600's; on another arm, leave it out for the "
+        "arm's seeded scenario, --seed)",
     )
     p.add_argument(
         "--config",
@@ -266,6 +273,54 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
     )
     loop.add_argument("--adaptive", dest="adaptive", action="store_true", help="re-linearize every frame")
     p.add_argument("--duration", type=positive, metavar="S", help="simulated time [s] (default 10)")
+    p.add_argument(
+        "--seed",
+        type=seed,
+        metavar="S",
+        help="without --scenario or a [scenario]: the seed of the arm's scenario (markers in front of the "
+        "camera near the robot's home configuration, scenarios.for_arm; default 0)",
+    )
+    _add_arm_options(p, "to simulate", config=True)
+
+
+def _add_arm_options(p: argparse.ArgumentParser, what: str, *, config: bool = False) -> None:
+    """The arm (simulate, view, compare, campaign, robustness): a robot or a URDF, its mount."""
+    default = "the IRB 4600 of the paper" + (", or the --config file's [arm]" if config else "")
+    group = p.add_argument_group(
+        "arm",
+        f"the arm {what} (default: {default}); a robot by name or a URDF file of a fixed-base arm whose "
+        "chain to the camera has six or more joints",
+    )
+    which = group.add_mutually_exclusive_group()
+    which.add_argument(
+        "--robot",
+        choices=catalog.ROBOTS,
+        metavar="NAME",
+        help=f"one of {', '.join(catalog.ROBOTS)}, with its camera on the tool flange (docs/own-robot.md)",
+    )
+    which.add_argument("--urdf", type=Path, metavar="FILE", help="a URDF file (meshes are not needed)")
+    group.add_argument(
+        "--camera-frame",
+        metavar="FRAME",
+        help="the frame the camera is mounted on (default: the robot's mount; with --urdf, 'camera')",
+    )
+    group.add_argument(
+        "--T-F-C",
+        dest="T_F_C",
+        type=transform,
+        metavar="X,Y,Z,RX,RY,RZ",
+        help="the camera in that frame: translation [m] and rotation vector [deg], or the 16 entries of "
+        "the 4x4 transform row by row (default: the robot's mount; with --urdf, the frame itself)",
+    )
+    group.add_argument(
+        "--locked-joint",
+        dest="locked_joints",
+        type=locked_joint,
+        action="append",
+        metavar="NAME=VALUE",
+        help="lock a joint at a value [rad or m] (repeat for several; joints off the chain to the camera "
+        "are locked anyway, at their neutral position)",
+    )
 
 
 def _add_design(p: argparse.ArgumentParser) -> None:
@@ -315,14 +370,14 @@ def _add_view(p: argparse.ArgumentParser) -> None:
 
 
 def _add_compare(p: argparse.ArgumentParser) -> None:
-    which = p.add_mutually_exclusive_group(required=True)
+    which = p.add_mutually_exclusive_group()  # one of them, or an arm's scenario: checked by compare
     which.add_argument(
         "--scenario",
         choices=(*catalog.SCENARIOS, *catalog.SUITE_TASKS, catalog.TEXTURED_SCENARIO),
         metavar="NAME",
-        help=f"one of {', '.join(catalog.SCENARIOS)}, a task of the suite: "
+        help=f"one of {', '.join(catalog.SCENARIOS)} (the IRB 4600's), a task of the suite: "
         f"{', '.join(catalog.SUITE_TASKS)}, or {catalog.TEXTURED_SCENARIO} (a textured plane, for "
-        "photometric servoing)",
+        "photometric servoing); without it and --suite, the seeded scenario of the --robot or --urdf arm",
     )
     which.add_argument(
         "--suite", choices=catalog.SUITES, help=f"run every task of the suite: {', '.join(catalog.SUITES)}"
@@ -360,6 +415,14 @@ def _add_compare(p: argparse.ArgumentParser) -> None:
         help="output folder (default: results/compare/<scenario or suite>)",
     )
     p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.add_argument(
+        "--seed",
+        type=seed,
+        metavar="S",
+        help="the seed of the arm's scenario (with --robot or --urdf and no --scenario: markers in front of "
+        "the camera near the robot's home configuration, scenarios.for_arm; default 0)",
+    )
+    _add_arm_options(p, "of an arm scenario (the suite's tasks and the textured plane are the free camera's)")
 
 
 def _add_campaign_options(p: argparse.ArgumentParser, plural: str) -> None:
@@ -419,6 +482,11 @@ def _add_campaign_options(p: argparse.ArgumentParser, plural: str) -> None:
         "(default 600)",
     )
     p.add_argument("--no-progress", action="store_true", help=f"no progress bar{plural}")
+    _add_arm_options(
+        p,
+        "of the arm families: their cases are drawn for it (its joint limits and singularities) and every "
+        "run's key holds its identity",
+    )
 
 
 def _add_robustness(p: argparse.ArgumentParser) -> None:

@@ -26,7 +26,7 @@ from typing import Any
 
 from .base import PROG, UsageError, flag_errors
 from .campaign import FLAGS as CAMPAIGN_FLAGS
-from .campaign import quiet_client_log
+from .campaign import campaign_arm, quiet_client_log
 
 FLAGS = {**CAMPAIGN_FLAGS, "values": "--values", "tolerance": "--tolerance", "axis": "--axis"}
 
@@ -50,6 +50,7 @@ def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
             raise UsageError("robustness: --feedforward smooth is ff+fb's option; add ff+fb to --controllers")
         params = {"ff+fb": {"feedforward": "smooth"}}
     campaign = {
+        "arm": campaign_arm(args),
         "family": args.family,
         "cases": args.cases,
         "controllers": names,

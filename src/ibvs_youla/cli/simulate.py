@@ -14,35 +14,57 @@ from pathlib import Path
 from typing import Any
 
 from .. import catalog
-from .base import PROG, UsageError, flag_errors, load_optional_config, one_line
+from .base import PROG, UsageError, arm_flags, flag_errors, load_optional_config, one_line, resolve_arm
 
 # what null stands for in summary.json (strict JSON)
 SUMMARY_NULL = "never, for a settling time; not measured or not applicable, for any other value"
-FLAGS = {"duration": "--duration", "controller": "--controller", "plant": "--plant"}
+FLAGS = {"duration": "--duration", "controller": "--controller", "plant": "--plant", "seed": "--seed"}
 
 
 def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any]:
     """Scenario, simulate() keyword arguments, arm and camera from --scenario/--config/flags.
 
+    The arm is the flags' (``--robot``, ``--urdf``, the mount) over the config's ``[arm]``,
+    default the IRB 4600; the scenario ``--scenario`` (the IRB 4600's), the config's
+    ``[scenario]``, or, with an arm given and no scenario named, the arm's seeded scenario
+    (:func:`ibvs_youla.scenarios.for_arm`, ``--seed`` or ``[scenario] seed``).
+
     Raises:
-        UsageError: no scenario, or a controller that cannot drive the plant (the free camera
-            takes camera twists only).
+        UsageError: no scenario, a named scenario on another arm, ``--seed`` with a scenario, or a
+            controller that cannot drive the plant (the free camera takes camera twists only).
     """
     from .. import controllers
     from .. import scenarios as _scenarios
     from ..controllers import CommandType
-    from ..model.arm import Arm
-    from ..model.camera import default_camera
 
     cfg = load_optional_config(args.config)
+    arm = resolve_arm(args, cfg)
+    camera = default_camera_of(cfg)
+    arm_given = bool(arm_flags(args)) or (cfg is not None and bool(cfg.arm_options))
+    seed = None if cfg is None else cfg.scenario_seed
+    if args.seed is not None and (
+        args.scenario is not None or (cfg is not None and cfg.scenario is not None)
+    ):
+        raise UsageError(
+            f"argument --seed: the seed of the arm's scenario; valid only without --scenario and a "
+            f"[scenario] table (received --seed {args.seed} with a scenario)"
+        )
     if args.scenario is not None:
+        if arm.robot != "irb4600":
+            raise UsageError(
+                f"argument --scenario: received {args.scenario!r}, a scenario of the IRB 4600 (its joint "
+                f"angles and markers); for the arm {arm.name!r} leave --scenario out: its seeded "
+                "scenario (--seed)"
+            )
         scenario = _scenarios.get(args.scenario)
     elif cfg is not None and cfg.scenario is not None:
         scenario = cfg.scenario
+    elif args.seed is not None or seed is not None or arm_given:
+        scenario = _scenarios.for_arm(arm, args.seed if args.seed is not None else (seed or 0), camera=camera)
     else:
         raise UsageError(
-            f"{args.command}: give --scenario NAME ({', '.join(catalog.SCENARIOS)}) "
-            "or --config FILE with a [scenario] table"
+            f"{args.command}: give --scenario NAME ({', '.join(catalog.SCENARIOS)}), --config FILE with a "
+            "[scenario] table, or an arm (--robot NAME, --urdf FILE) for its seeded scenario"
         )
 
     def pick(flag: Any, key: str, default: Any) -> Any:
@@ -69,11 +91,16 @@ def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any
                 f"commands {command.value}; valid: an arm plant (--plant dynamic or kinematic), or a "
                 f"controller that commands a camera twist: {', '.join(twist)}"
             )
-    arm = Arm.irb4600() if cfg is None else cfg.make_arm()
-    camera = default_camera() if cfg is None else cfg.make_camera()
     if kwargs["plant"] != "free-camera" and scenario.has_joints:
         scenario.validate_for(arm)  # JointLimitError: a [scenario] outside the arm's limits
     return scenario, kwargs, arm, camera
+
+
+def default_camera_of(cfg: Any) -> Any:
+    """The camera of the config's ``[camera]``, else the simulator's default (the ZED 2)."""
+    from ..model.camera import default_camera
+
+    return default_camera() if cfg is None else cfg.make_camera()
 
 
 def config_keys(args: argparse.Namespace) -> dict[str, str]:

@@ -1,4 +1,9 @@
-"""``ibvs-youla view``: play a run (simulated now or loaded from a result file) in Meshcat."""
+"""``ibvs-youla view``: play a run (simulated now or loaded from a result file) in Meshcat.
+
+The arm is drawn from its URDF's own visual geometry (meshes included, :mod:`ibvs_youla.viz`):
+the flags' arm (``--robot``, ``--urdf``, the mount) or the ``--config`` file's, and for a saved
+result without them the arm it was simulated on (its metadata's identity), else the IRB 4600.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +12,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..exceptions import DamagedFileError, IbvsYoulaError
-from .base import UsageError, flag_errors
+from .base import UsageError, arm_flags, flag_errors, resolve_arm
 from .simulate import FLAGS as RUN_FLAGS
 from .simulate import config_keys, resolve_run
 
@@ -19,14 +24,15 @@ _ARM_RUN_KEYS = ("q_start", "q_target", "markers_O", "joint_offset", "scenario",
 def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
     """The run to play (checked now, simulated later), or the result file to load; return the player."""
     if args.result is not None:
-        if args.scenario or args.config:
-            raise UsageError("view: give either --result FILE or --scenario/--config, not both")
-        return lambda: _play(args, None)
+        if args.scenario or args.config or args.seed is not None:
+            raise UsageError("view: give either --result FILE or --scenario/--config/--seed, not both")
+        arm = resolve_arm(args) if arm_flags(args) else None
+        return lambda: _play(args, None, arm)
     run = resolve_run(args)
-    return lambda: _play(args, run)
+    return lambda: _play(args, run, run[2])
 
 
-def _play(args: argparse.Namespace, run: tuple[Any, ...] | None) -> int:
+def _play(args: argparse.Namespace, run: tuple[Any, ...] | None, arm: Any) -> int:
     """Play the run in the Meshcat viewer until Ctrl-C (or once with ``--no-wait``); return 0.
 
     A ``--zmq-url`` server is asked for first, so that one that does not answer within
@@ -63,11 +69,12 @@ def _play(args: argparse.Namespace, run: tuple[Any, ...] | None) -> int:
             name=m["scenario"],
             virtual_points=m["virtual_points"],
         )
-        arm, camera = None, default_camera()
+        arm = _result_arm(result.metadata) if arm is None else arm
+        camera = default_camera()
     else:
         from ..simulation.simulate import simulate
 
-        scenario, kwargs, arm, camera = run
+        scenario, kwargs, _, camera = run
         with flag_errors(args, FLAGS, config_keys(args)):
             result = simulate(scenario, **kwargs, arm=arm, camera=camera, progress=True)
     viewer = Viewer(
@@ -88,6 +95,16 @@ def _play(args: argparse.Namespace, run: tuple[Any, ...] | None) -> int:
     finally:
         viewer.close()
     return 0
+
+
+def _result_arm(metadata: Any) -> Any:
+    """The arm a saved run names in its metadata (``arm_identity``), None (the IRB 4600) without one."""
+    from ..model.arm import Arm
+
+    identity = metadata.get("arm_identity")
+    if identity is None:
+        return None
+    return Arm.from_identity(identity, urdf=metadata.get("arm_urdf"))
 
 
 class _ViewUnavailable(IbvsYoulaError):

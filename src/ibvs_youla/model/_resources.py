@@ -19,7 +19,7 @@ import pinocchio as pin
 from ..exceptions import ModelLoadError
 from .urdf_checks import check_urdf_file
 
-__all__ = ["example_robot_data_urdf", "load_urdf_model", "urdf_path"]
+__all__ = ["example_robot_data_urdf", "load_urdf_model", "package_dirs", "urdf_path"]
 
 
 def urdf_path(name: str) -> Path:
@@ -37,14 +37,35 @@ def example_robot_data_urdf(relative: str) -> Path:
     ``<site-packages>/cmeel.prefix/share/example-robot-data/robots``; this looks there
     for every site-packages directory of the running interpreter.
     """
-    roots = {sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"], *filter(None, sys.path)}
     tried = []
-    for root in sorted(roots):
+    for root in _site_roots():
         path = Path(root) / "cmeel.prefix" / "share" / "example-robot-data" / "robots" / relative
         tried.append(str(path))
         if path.is_file():
             return path
     raise ModelLoadError(relative, f"example-robot-data URDF {relative!r} not found; looked in {tried[:3]}")
+
+
+def _site_roots() -> list[str]:
+    return sorted(
+        {sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"], *filter(None, sys.path)}
+    )
+
+
+def package_dirs(path: Path) -> list[str]:
+    """Where a URDF's ``package://NAME/...`` mesh files are looked for (Pinocchio's ``package_dirs``).
+
+    The folders that hold the file's packages: every ancestor folder of the URDF (a
+    ``package://robot_description/meshes/...`` next to ``robot_description/urdf/``), then the
+    example-robot-data wheel's ``<site-packages>/cmeel.prefix/share`` (whose URDFs name
+    ``package://example-robot-data/robots/...``).
+    """
+    dirs = [str(folder) for folder in Path(path).resolve().parents]
+    for root in _site_roots():
+        share = Path(root) / "cmeel.prefix" / "share"
+        if share.is_dir() and str(share) not in dirs:
+            dirs.append(str(share))
+    return dirs
 
 
 def load_urdf_model(path: Path) -> pin.Model:

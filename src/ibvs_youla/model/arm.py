@@ -61,9 +61,9 @@ from .._linalg import add_product
 from .._validation import as_array, as_pose, non_negative, positive, text
 from ..exceptions import InvalidArrayError, InvalidParameterError, ModelLoadError, UnreachablePoseError
 from . import robots
-from ._resources import load_urdf_model
+from ._resources import load_urdf_model, package_dirs
 from .actuators import ActuatorParameters
-from .chain import joint_coordinate_model, joint_kinds, mimic_joints, reduce_to_chain
+from .chain import joint_coordinate_model, joint_kinds, mimic_joints, reduce_geometry, reduce_to_chain
 from .ik import (
     SphericalWristParameters,
     closed_form_branches,
@@ -472,6 +472,34 @@ class Arm:
             name=name,
             source=path,
         )
+
+    def visual_model(self) -> pin.GeometryModel:
+        """The URDF's visual geometry (its meshes) on this arm's chain, to draw the arm (Meshcat).
+
+        Loaded from :attr:`urdf_path` with Pinocchio (``buildGeomFromUrdf``, mesh files found
+        through ``package_dirs``: the URDF's ancestor folders and example-robot-data's
+        ``cmeel.prefix/share``), the joints off the chain locked where the arm locked them
+        (:func:`~.chain.reduce_geometry`). Its objects' joint ids are those of :attr:`model`.
+
+        Raises:
+            ModelLoadError: the arm was built without a URDF file, or a mesh it names cannot be
+                loaded.
+        """
+        if self.urdf_path is None:
+            raise ModelLoadError(
+                self.name, f"{self!r} was built without a URDF, so it has no visual geometry"
+            )
+        path = Path(self.urdf_path)
+        full = load_urdf_model(path)
+        try:
+            geometry = pin.buildGeomFromUrdf(
+                full, str(path), pin.GeometryType.VISUAL, package_dirs=package_dirs(path)
+            )
+        except (RuntimeError, ValueError) as exc:
+            raise ModelLoadError(
+                path, f"Pinocchio cannot load the visual geometry of {str(path)!r}: {exc}"
+            ) from None
+        return reduce_geometry(full, geometry, self.joint_names, self.locked_joints, path)
 
     def identity(self) -> robots.ArmIdentity:
         """What tells this arm apart from others, as plain data (:class:`~.robots.ArmIdentity`).

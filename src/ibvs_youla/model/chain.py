@@ -44,6 +44,7 @@ __all__ = [
     "joint_coordinate_model",
     "joint_kinds",
     "mimic_joints",
+    "reduce_geometry",
     "reduce_to_chain",
 ]
 
@@ -245,6 +246,34 @@ def reduce_to_chain(
         values[name] = _neutral_value(model, j, entries)
     reduced = pin.buildReducedModel(model, lock, q_ref) if lock else model.copy()
     return reduced, values
+
+
+def reduce_geometry(
+    model: pin.Model,
+    geometry: pin.GeometryModel,
+    chain_names: Any,
+    locked_values: Mapping[str, Any],
+    path: Any = None,
+) -> pin.GeometryModel:
+    """``geometry`` of the full ``model`` placed on the chain :func:`reduce_to_chain` made of it.
+
+    Every joint not named in ``chain_names`` is locked as :func:`reduce_to_chain` locked it: at
+    its entry of ``locked_values`` (the values it returned, joint coordinates), else its neutral
+    position; ``pinocchio.buildReducedModel`` then moves each geometry object onto the joint
+    that carries it. The joint ids are those of the chain (and of :func:`joint_coordinate_model`
+    of it, which keeps them), so the result draws the arm's configuration as it is.
+    """
+    keep = set(chain_names)
+    lock = [j for j in range(1, model.njoints) if model.names[j] not in keep]
+    if not lock:
+        return geometry.copy()
+    q_ref = pin.neutral(model)
+    for j in lock:
+        value = locked_values.get(model.names[j])
+        if value is not None:
+            q_ref[model.idx_qs[j] : model.idx_qs[j] + model.nqs[j]] = _locked_value(model, j, value, path)
+    _, reduced = pin.buildReducedModel(model, geometry, lock, q_ref)
+    return reduced
 
 
 def _neutral_value(model: pin.Model, j: int, entries: np.ndarray) -> Any:

@@ -672,6 +672,10 @@ def _metadata(
             "beliefs": beliefs.to_dict(),
         },
     }
+    if world.arm is not None:  # which arm, to rebuild it (Arm.from_identity; e.g. view --result)
+        metadata["arm_identity"] = world.arm.identity().to_dict()
+        if world.arm.robot is None and world.arm.urdf_path is not None:
+            metadata["arm_urdf"] = str(world.arm.urdf_path)
     if joints:
         metadata.update(
             q_start=scenario.q_start.tolist(),  # type: ignore[union-attr]

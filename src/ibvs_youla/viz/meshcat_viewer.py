@@ -1,7 +1,8 @@
 """Meshcat viewer: the arm from its URDF visual geometry, markers, camera frustum, target pose, rays.
 
-The arm is drawn by Pinocchio's :class:`~pinocchio.visualize.MeshcatVisualizer` from the URDF's
-visual shapes (``pin.buildGeomFromUrdf(..., pin.GeometryType.VISUAL)``); everything else is
+The arm, any arm with a URDF, is drawn by Pinocchio's :class:`~pinocchio.visualize.MeshcatVisualizer`
+from the URDF's visual shapes and meshes (:meth:`~ibvs_youla.model.arm.Arm.visual_model`, on the
+arm's chain); everything else is
 computed in :mod:`ibvs_youla.viz.geometry` and sent as meshcat line segments and spheres.
 Meshcat serves its web page and three.js from a local server (no internet needed); the viewer
 never opens a browser, it prints the URL. Given the ``zmq_url`` of a running server instead, it
@@ -87,9 +88,10 @@ class Viewer:
     """A meshcat scene of the servoing task (use as a context manager or call close()).
 
     Args:
-        arm: The arm; default ``Arm.irb4600()``. Needs ``arm.urdf_path`` (its visual geometry).
-            An eye-to-hand arm (module docstring) draws the fixed camera and the markers on the
-            tool; :meth:`show_scenario` and :meth:`play` mount the arm as their run is.
+        arm: The arm, any (e.g. ``Arm.from_robot("ur5")``); default ``Arm.irb4600()``. Needs
+            ``arm.urdf_path`` (its visual geometry and meshes). An eye-to-hand arm (module
+            docstring) draws the fixed camera and the markers on the tool; :meth:`show_scenario`
+            and :meth:`play` mount the arm as their run is.
         camera: The stereo camera; default ``StereoCamera.zed2()``.
         zmq_url: Connect to a running ``meshcat-server`` instead of starting one.
         connect_timeout: How long to wait for that server's answer [s]
@@ -100,7 +102,7 @@ class Viewer:
 
     Attributes:
         url: The page to open in a browser.
-        q: The configuration last displayed (6,) [rad] (true joint angles).
+        q: The configuration last displayed (n,) [rad or m] (true joint angles).
 
     Raises:
         VisualizationError: meshcat is not installed, the arm has no URDF, or no server
@@ -120,8 +122,6 @@ class Viewer:
         meshcat, MeshcatVisualizer = _import_meshcat()
         if zmq_url is not None:  # meshcat would wait forever for a server that is not there
             wait_for_server(zmq_url, connect_timeout)
-        import pinocchio as pin
-
         from ..model.arm import Arm
 
         self.arm: Arm = Arm.irb4600() if arm is None else arm
@@ -131,7 +131,7 @@ class Viewer:
         self.frustum_far = positive(frustum_far, "frustum_far", unit="[m]")
         if self.arm.urdf_path is None:
             raise VisualizationError(f"{self.arm!r} was built without a URDF, so it has no visual geometry")
-        visual = pin.buildGeomFromUrdf(self.arm.model, str(self.arm.urdf_path), pin.GeometryType.VISUAL)
+        visual = self.arm.visual_model()  # the URDF's meshes, on the arm's chain
         with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL; we print it once below
             self._vis = meshcat.Visualizer(zmq_url=zmq_url)
         self._g = meshcat.geometry
@@ -160,7 +160,7 @@ class Viewer:
 
     # ------------------------------------------------------------------ scene
     def display(self, q: Any) -> None:
-        """Put the arm at true joint angles ``q`` (n,) [rad]; the camera, tool markers and rays follow."""
+        """Put the arm at joint angles ``q`` (n,) [rad or m]; the camera, tool markers and rays follow."""
         self.q = as_array(q, "q", (self.arm.nq,)).copy()
         self._robot.display(self.q)
         if self._camera_shown:

@@ -21,6 +21,7 @@ from ibvs_youla.campaign.spec import ExperimentSpec, specs_for
 from ibvs_youla.exceptions import InvalidParameterError
 from ibvs_youla.model.arm import Arm
 from ibvs_youla.model.eye_to_hand import mounted
+from ibvs_youla.model.robots import get
 
 
 @pytest.fixture(scope="module")
@@ -94,3 +95,20 @@ def test_the_command_line_runs_an_eye_to_hand_campaign(tmp_path):
     rows = read_rows(out)
     assert list(rows["family"]) == ["arm-eye-to-hand"] and rows["status"].iloc[0] == "complete"
     assert '"mount":{"T_O_C"' in rows["spec"].iloc[0]  # the mount is in the stored spec
+
+
+def test_the_mount_families_draw_and_run_on_the_campaign_s_arm():
+    """``arm=`` acts on the mount families too: the UR5's cases, its record in the spec, a run on it."""
+    ur5 = Arm.from_robot("ur5")
+    on_irb = generate_cases("arm-eye-to-hand", 1, 0)[0].scenario
+    on_ur5 = generate_cases("arm-eye-to-hand", 1, 0, arm=ur5)[0].scenario
+    assert not np.allclose(on_irb["q_target"], on_ur5["q_target"])  # drawn about the UR5's home
+    home = get("ur5").q_home
+    np.testing.assert_allclose(on_ur5["q_target"], home, rtol=0, atol=np.radians(10.0) + 1e-12)
+    definition = CampaignDefinition(
+        "arm-eye-to-hand", 1, ("ibvs-current",), plant="kinematic", arm=ur5, duration=15.0
+    )
+    (spec,) = definition.specs()
+    assert spec.arm["robot"] == "ur5" and spec.build()["scenario"].mount.is_eye_to_hand
+    row = run_spec(spec)
+    assert row["outcome"] == "reached" and row["time_to_reach_s"] == pytest.approx(8.068, abs=0.01)

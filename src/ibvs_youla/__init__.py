@@ -41,6 +41,8 @@ _LAZY: dict[str, str] = {
     # simulation
     "Scenario": ".scenarios",
     "simulate": ".simulation.simulate",
+    "simulate_batch": ".simulation.batch",
+    "BatchResult": ".simulation.batch",
     "Beliefs": ".simulation.simulate",
     "Disturbances": ".simulation.disturbances.definition",
     "SimulationSettings": ".simulation.settings",
@@ -53,6 +55,7 @@ _SUBMODULES = {"scenarios", "model", "estimation", "control", "controllers", "si
 
 __all__ = [
     "Arm",
+    "BatchResult",
     "Beliefs",
     "DetectorSettings",
     "DiscMarkers",
@@ -82,6 +85,7 @@ __all__ = [
     "rigid_transform_from_points",
     "scenarios",
     "simulate",
+    "simulate_batch",
     "simulation",
 ]
 
@@ -115,6 +119,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .model.arm import Arm
     from .model.camera import PinholeCamera, StereoCamera, Visibility
     from .scenarios import Scenario
+    from .simulation.batch import BatchResult, simulate_batch
     from .simulation.disturbances.definition import Disturbances
     from .simulation.image_sensor import ImageSensor
     from .simulation.rendering import DiscMarkers, ImagingSettings

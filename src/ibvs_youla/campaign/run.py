@@ -1,4 +1,4 @@
-"""Run one :class:`~.spec.ExperimentSpec` and return its row, whatever happens.
+"""Run one :class:`~.spec.ExperimentSpec`, or a batch of them, and return their rows, whatever happens.
 
 :func:`run_spec` is what a campaign sends to its workers: it builds the scenario, controller,
 camera and settings from the spec, simulates, and returns :func:`~.metrics.row_from_result`.
@@ -6,19 +6,29 @@ A run that raises (a bad spec, a diverging plant, a controller refusing its task
 exception for the campaign: its row has the outcome ``"error"`` (or ``"diverged"``, measured
 on the partial record) and the message. The arm (the IRB 4600) is built once per process and
 thread (its Pinocchio data is per thread already; building it costs ~50 ms).
+
+:func:`run_specs` runs several specs that differ only in their case (:func:`batch_key`: one method,
+plant, camera, settings and duration, any disturbances but their seed) in one
+:func:`~ibvs_youla.simulate_batch` call, which gives each case the result ``simulate()`` gives it, so
+each row is the one :func:`run_spec` returns (but for the measured times: a row's ``wall_s`` is its
+share of the batch). What the batch does not give as ``run_spec`` does is run by ``run_spec``: a spec
+of another key, a case that ended with an error (its row carries the error's type and message), a
+batch that raises (each of its specs then runs alone, and a bad one gets its own error row).
 """
 
 from __future__ import annotations
 
+import json
 import threading
 import time
+from collections.abc import Sequence
 from typing import Any
 
 from ..exceptions import SimulationDivergedError
 from .metrics import error_row, row_from_result
 from .spec import ExperimentSpec
 
-__all__ = ["run_spec", "run_spec_with_result"]
+__all__ = ["batch_key", "run_spec", "run_spec_with_result", "run_specs", "run_specs_with_results"]
 
 _LOCAL = threading.local()
 
@@ -59,3 +69,71 @@ def run_spec_with_result(spec: ExperimentSpec | str) -> tuple[dict[str, Any], An
     except Exception as err:  # every failure becomes a row: the campaign goes on
         return error_row(spec, err, time.perf_counter() - t0), None
     return row_from_result(spec, result, arm, time.perf_counter() - t0), result
+
+
+def batch_key(spec: ExperimentSpec) -> str | None:
+    """The key of the specs one ``simulate_batch`` call runs together, or None for a spec run alone.
+
+    Specs of a registered classical IBVS method on a plant the batch covers (``BATCH_CONTROLLERS``,
+    ``BATCH_PLANTS``) with the same method, parameters, plant, camera, settings, duration and
+    disturbances (their seed is the case's own) share a key. Whether their disturbances are ones the
+    batch covers is for the batch to say (:func:`run_specs` then runs them alone).
+    """
+    from ..simulation.batch import BATCH_CONTROLLERS, BATCH_PLANTS
+
+    if spec.controller not in BATCH_CONTROLLERS or spec.plant not in BATCH_PLANTS:
+        return None
+    data = spec.to_dict()
+    shared = {k: data.get(k) for k in ("controller", "controller_params", "plant", "camera", "settings")}
+    shared.update(duration=spec.duration, disturbances=data.get("disturbances", {}))
+    return json.dumps(shared, sort_keys=True, separators=(",", ":"))
+
+
+def run_specs(specs: Sequence[ExperimentSpec | str]) -> list[dict[str, Any]]:
+    """The rows of several runs, in order (module docstring); each spec may be its JSON."""
+    return [row for row, _ in run_specs_with_results(specs)]
+
+
+def run_specs_with_results(specs: Sequence[ExperimentSpec | str]) -> list[tuple[dict[str, Any], Any]]:
+    """The row and result of each run, in order, as :func:`run_spec_with_result` gives them.
+
+    Runs of one :func:`batch_key` in one ``simulate_batch`` call (module docstring), the others alone.
+    """
+    parsed = [ExperimentSpec.from_json(s) if isinstance(s, str) else s for s in specs]
+    out: list[tuple[dict[str, Any], Any] | None] = [None] * len(parsed)
+    groups: dict[str, list[int]] = {}
+    for i, spec in enumerate(parsed):
+        key = batch_key(spec)
+        if key is None:
+            out[i] = run_spec_with_result(spec)
+        else:
+            groups.setdefault(key, []).append(i)
+    for indices in groups.values():
+        for i, pair in zip(indices, _batch([parsed[i] for i in indices]), strict=True):
+            out[i] = pair if pair is not None else run_spec_with_result(parsed[i])
+    return out  # type: ignore[return-value]
+
+
+_OWN_STATUSES = ("complete", "markers_lost", "estimate_failed")  # what the batch's loop itself gives
+
+
+def _batch(specs: list[ExperimentSpec]) -> list[tuple[dict[str, Any], Any] | None]:
+    """Rows and results of specs of one batch key from one simulate_batch call (None: run it alone)."""
+    from ..exceptions import IbvsYoulaError
+    from ..simulation.batch import simulate_batch
+
+    t0 = time.perf_counter()
+    try:
+        built = [spec.build() for spec in specs]
+        first = built[0]
+        kwargs = {k: v for k, v in first.items() if k not in ("scenario", "disturbances")}
+        disturbances = [b.get("disturbances") for b in built]
+        arm = None if specs[0].plant == "free-camera" else _arm()
+        batch = simulate_batch([b["scenario"] for b in built], disturbances=disturbances, arm=arm, **kwargs)
+    except IbvsYoulaError:  # a spec the batch refuses: each runs alone, a bad one gets its error row
+        return [None] * len(specs)
+    share = (time.perf_counter() - t0) / len(specs)
+    return [
+        (row_from_result(spec, result, arm, share), result) if result.status in _OWN_STATUSES else None
+        for spec, result in zip(specs, batch, strict=True)
+    ]

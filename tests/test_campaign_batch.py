@@ -1,0 +1,101 @@
+"""Campaigns run classical IBVS in batches: each row is the row of the run alone, the keys unchanged.
+
+``run_specs`` runs the specs of one batch key (method, plant, camera, settings, duration,
+disturbances) in one ``simulate_batch`` call and the others alone; its rows are compared with
+``run_spec``'s, every column but the measured times, on seeded free-planar cases (monocular
+normalized camera, the depths from SQPnP) and arm-physical cases on the kinematic arm (stereo).
+They are equal to the bit. Against the plug-in loop (what ``run_spec`` gave before classical IBVS had
+a compiled path), every number to 1e-9, relative or absolute (SQPnP's stopping tolerance is the
+difference, measured 6e-10 relative on ``final_position_mm``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ibvs_youla.campaign.cases import generate_cases
+from ibvs_youla.campaign.metrics import row_from_result
+from ibvs_youla.campaign.run import _arm, batch_key, run_spec, run_specs
+from ibvs_youla.campaign.runner import tasks_of
+from ibvs_youla.campaign.spec import specs_for
+from ibvs_youla.simulation.simulate import simulate
+
+TIMED = ("wall_s", "update_median_us", "update_p95_us")
+FREE = dict(
+    plant="free-camera",
+    camera={"kind": "normalized"},
+    duration=8.0,
+    settings={"joint_rate_hz": 25.0, "camera_rate_hz": 25.0},
+)
+
+
+def same_row(a, b, tolerance=0.0):
+    assert a.keys() == b.keys()
+    for column, value in a.items():
+        if column in TIMED:
+            continue
+        other = b[column]
+        if isinstance(value, float) and math.isfinite(value):
+            assert abs(value - other) <= tolerance * max(1.0, abs(other)), (column, value, other)
+        elif isinstance(value, float):  # NaN or infinite: the same
+            assert str(value) == str(other), (column, value, other)
+        else:
+            assert value == other, (column, value, other)
+
+
+@pytest.fixture(scope="module")
+def free_specs():
+    methods = ("ibvs-current", "pbvs", "ibvs-desired", "ibvs-mean")
+    return specs_for(generate_cases("free-planar", 5, 0), methods, seed=0, **FREE)
+
+
+def test_batched_rows_are_the_rows_of_runs_alone_and_of_the_plug_in_loop(free_specs):
+    batched = run_specs([s.to_json() for s in free_specs])
+    assert [r["key"] for r in batched] == [s.key for s in free_specs]  # in order, keys unchanged
+    for spec, row in zip(free_specs, batched, strict=True):
+        same_row(row, run_spec(spec))
+        if spec.controller != "pbvs":  # the plug-in loop's row, before the compiled path
+            result = simulate(**spec.build(), loop="plug-in")
+            assert result.metadata["loop"] == "plug-in"
+            same_row(row, row_from_result(spec, result), tolerance=1e-9)
+
+
+def test_the_kinematic_arm_with_the_stereo_camera():
+    specs = specs_for(
+        generate_cases("arm-physical", 2, 0), ("ibvs-mean",), seed=0, plant="kinematic",
+        camera={"kind": "stereo"}, duration=2.0, settings={"joint_rate_hz": 100.0, "camera_rate_hz": 25.0},
+    )  # fmt: skip
+    batched = run_specs(specs)
+    for spec, row in zip(specs, batched, strict=True):
+        same_row(row, run_spec(spec))
+        assert np.isfinite(row["final_jacobian_sigma"]) and row["final_jacobian_sigma"] > 0.0
+    assert _arm() is _arm()  # one arm per process
+
+
+def test_tasks_group_the_runs_of_one_batch_key_in_the_campaigns_order(free_specs):
+    keys = [batch_key(s) for s in free_specs]
+    assert [k is None for k in keys[:4]] == [False, True, False, False]  # pbvs runs alone
+    assert len({k for k in keys if k is not None}) == 3  # one per classical method
+    tasks = tasks_of(free_specs, size=3)
+    assert [len(t) for t in tasks] == [3, 1, 3, 3, 1, 1, 2, 1, 2, 2, 1]  # each task where its first run is
+    assert [s.controller for s in tasks[0]] == ["ibvs-current"] * 3 and tasks[1][0].controller == "pbvs"
+    assert sorted(s.key for t in tasks for s in t) == sorted(s.key for s in free_specs)
+    dynamic = specs_for(generate_cases("arm-physical", 1, 0), ("ibvs-current",), seed=0, plant="dynamic",
+                        camera={"kind": "stereo"}, duration=1.0)  # fmt: skip
+    assert batch_key(dynamic[0]) is None  # simulate_batch does not run the dynamic arm
+
+
+def test_a_batch_it_refuses_runs_its_specs_alone():
+    """Pixel noise wraps the sensor: the batch refuses, each spec runs alone, with the same rows."""
+    specs = specs_for(
+        generate_cases("free-planar", 2, 1),
+        ("ibvs-desired",),
+        seed=1,
+        disturbances={"pixel_noise_px": 0.5},
+        **FREE,
+    )
+    for spec, row in zip(specs, run_specs(specs), strict=True):
+        same_row(row, run_spec(spec))

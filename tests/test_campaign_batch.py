@@ -11,6 +11,7 @@ difference, measured 6e-10 relative on ``final_position_mm``).
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -99,3 +100,67 @@ def test_a_batch_it_refuses_runs_its_specs_alone():
     )
     for spec, row in zip(specs, run_specs(specs), strict=True):
         same_row(row, run_spec(spec))
+
+
+class _Future:
+    def __init__(self, key, value=None, killed=False):
+        self.key, self.value = key, value
+        self.status = "error" if killed else "finished"
+
+    def result(self):
+        return self.value
+
+    def exception(self):
+        from types import SimpleNamespace
+
+        from distributed.scheduler import KilledWorker
+
+        return KilledWorker(self.key, SimpleNamespace(address="tcp://127.0.0.1:1"), 2)
+
+    def release(self):
+        pass
+
+
+class _ClusterKillingBatches:
+    """A Dask client stand-in whose batch tasks all kill their worker (KilledWorker); single runs finish."""
+
+    def __init__(self):
+        self.submissions = []
+
+    def map(self, function, items, pure, retries):
+        futures = []
+        for item in items:
+            if isinstance(item, list):  # a batch task: its runs' JSON
+                self.submissions.append(sorted(json.loads(s)["case"] for s in item))
+                futures.append(_Future(f"batch-{len(self.submissions)}", killed=True))
+            else:
+                self.submissions.append([json.loads(item)["case"]])
+                futures.append(_Future(f"run-{len(self.submissions)}", function(item)))
+        return futures
+
+    def nthreads(self):
+        return {"tcp://127.0.0.1:1": 1}
+
+
+def test_a_batch_that_kills_its_worker_runs_again_run_by_run(tmp_path, monkeypatch):
+    import threading
+
+    import distributed
+
+    from ibvs_youla.campaign import runner, storage
+    from ibvs_youla.campaign.definition import CampaignDefinition
+
+    monkeypatch.setattr(distributed, "wait", lambda futures, timeout, return_when: (set(futures), set()))
+    definition = CampaignDefinition("free-planar", 3, ("ibvs-desired",), seed=3, duration=2.0)
+    storage.create_folder(tmp_path, definition.to_dict())
+    writer = storage.RowWriter(tmp_path, 100, 1e9)
+    summary = runner.CampaignSummary(tmp_path, 3, 0)
+    client = _ClusterKillingBatches()
+    bar = runner._progress_bar(3, 0, False)
+    runner._collect(client, definition.specs(), writer, summary, bar, tmp_path, False, threading.Event())
+    writer.flush()
+    assert client.submissions == [[0, 1, 2], [0], [1], [2]]  # together, then each alone after the others
+    rows = storage.read_rows(tmp_path).sort_values("case")
+    assert summary.errors == 0 and list(rows["case"]) == [0, 1, 2]
+    for spec in definition.specs():
+        same_row(rows.set_index("key").loc[spec.key].to_dict() | {"key": spec.key}, run_spec(spec))

@@ -226,3 +226,23 @@ def test_bad_input_says_what_was_received_and_what_is_valid(arm):
     with pytest.raises(InvalidParameterError, match="'free-camera' for the free-camera scenario") as err:
         iy.simulate_batch(mixed, "ibvs-current", plant="kinematic", arm=arm, duration=0.1, settings=RATE_25)
     assert "in simulate_batch's scenarios[1]" in err.value.__notes__
+
+
+def test_ctrl_c_keeps_what_every_case_recorded(monkeypatch):
+    from ibvs_youla.simulation import batch_loop
+
+    real, calls = batch_loop.free_camera_steps, []
+
+    def interrupted_at_the_third_frame(*args):
+        calls.append(args[0])
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        real(*args)
+
+    monkeypatch.setattr(batch_loop, "free_camera_steps", interrupted_at_the_third_frame)
+    kwargs = dict(plant="free-camera", camera=iy.PinholeCamera.normalized(), duration=1.0, settings=RATE_25)
+    with pytest.raises(KeyboardInterrupt) as err:
+        iy.simulate_batch(free_cases(2), "ibvs-mean", sensor="depth", **kwargs)
+    partial = err.value.partial
+    assert isinstance(partial, iy.BatchResult) and partial.statuses == ("interrupted", "interrupted")
+    assert [r.t.tolist() for r in partial] == [[0.0, 0.04]] * 2 and partial[0].frame_t.size == 2

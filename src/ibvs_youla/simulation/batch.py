@@ -136,6 +136,9 @@ def simulate_batch(
             in memory; and every error of :func:`~.simulate.simulate`'s checks, for the case that
             raised it (the error notes its index).
         IncompatibleCommandError, JointLimitError: as :func:`~.simulate.simulate`, for a case.
+        KeyboardInterrupt: Ctrl-C, with ``error.partial`` a :class:`BatchResult` of what was recorded:
+            every case (status ``"interrupted"`` where it had not ended) during the lockstep loop; the
+            cases before and the one being run during a plug-in rerun.
     """
     t0 = time.perf_counter()
     if isinstance(scenarios, Scenario) or not isinstance(scenarios, Sequence) or not scenarios:
@@ -202,14 +205,23 @@ def simulate_batch(
         "fewer scenarios per call (several batches), a shorter duration or a larger settings.record_every",
     )
     t_loop = time.perf_counter()
-    outcomes = BatchLoop(loops).run(progress)
+    try:
+        outcomes = BatchLoop(loops).run(progress)
+    except KeyboardInterrupt as err:  # every case's record, as the single runs do
+        err.partial = BatchResult(tuple(err.partial))  # type: ignore[attr-defined]
+        raise
     del loops
     t_rerun = time.perf_counter()
-    results, rerun = [], []
+    results: list[SimulationResult] = []
+    rerun: list[int] = []
     for i, result in enumerate(outcomes):
         if result is None:
             rerun.append(i)
-            result = _plug_in(prepare(i))
+            try:
+                result = _plug_in(prepare(i))
+            except KeyboardInterrupt as err:  # the cases before, and this one's record so far
+                err.partial = BatchResult((*results, err.partial), tuple(rerun))  # type: ignore[attr-defined]
+                raise
         results.append(result)
     t_end = time.perf_counter()
     seconds = {"setup": t_loop - t0, "loop": t_rerun - t_loop, "rerun": t_end - t_rerun}

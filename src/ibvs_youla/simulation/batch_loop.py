@@ -163,6 +163,7 @@ class BatchLoop:
         else:
             self.T_O_C = np.zeros((len(loops), 4, 4))
             self.joints = np.ascontiguousarray([self._joints(loop.plant) for loop in loops])
+            self.J_C = np.zeros((len(loops), 6, self.joints.shape[2]))
 
     @staticmethod
     def _joints(plant: Any) -> np.ndarray:
@@ -173,7 +174,7 @@ class BatchLoop:
         """Each case's result in order, None for a case whose kernel declined (its plug-in loop decides).
 
         Ctrl-C raises ``KeyboardInterrupt`` with ``error.partial``, the list of what each case recorded
-        (status ``"interrupted"`` for the cases still running).
+        (status ``"interrupted"`` for the cases still running, and for those whose kernel declined).
         """
         N, n = len(self.loops), self.markers_O.shape[1]
         m = self.law.shape[1]
@@ -206,7 +207,7 @@ class BatchLoop:
                     if bar is not None and k % 1000 == 0 and k:
                         bar.update(1000)
         except KeyboardInterrupt as err:  # Ctrl-C: what each case recorded, as the single-run loops do
-            self.state[self.state == RUNNING] = INTERRUPTED
+            self.state[(self.state == RUNNING) | (self.state == DECLINED)] = INTERRUPTED
             err.partial = self._results(time.perf_counter() - t0)  # type: ignore[attr-defined]
             raise
         finally:
@@ -229,10 +230,7 @@ class BatchLoop:
         is_frame = k % every == 0
         tic = time.perf_counter()
         running = np.flatnonzero(self.state == RUNNING)
-        joints, T_O_C = self.joints, self.T_O_C
-        J_C = getattr(self, "J_C", None)
-        if J_C is None:
-            J_C = self.J_C = np.zeros((len(self.loops), 6, joints.shape[2]))
+        joints, T_O_C, J_C = self.joints, self.T_O_C, self.J_C
         if is_frame or k % self.record_every == 0 or k == last:
             for c in running:
                 T_O_C[c] = self.loops[c].plant.arm.camera_fk(joints[c, 0])

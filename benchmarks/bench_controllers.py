@@ -15,20 +15,41 @@ Cases:
   seeded poses on the start -> target path (translation interpolated, rotation by slerp) perturbed
   by 1 cm and 2 deg (standard deviations per axis); a pose is kept when every point lies within the
   MPC's default image box (|x|, |y| <= 0.5), so each MPC update solves one QP (no fallback).
+* ``irregular``: the same poses with seven irregular coplanar points (ViSP's servoMomentPoints set,
+  its repeated point dropped, /20 and centred) in place of the square, every twist method: the
+  moment features refuse the square (isotropic moments), so ``ibvs-moments`` is timed here, next
+  to the other laws on the same frames.
 * ``stereo``: the physical-2 scenario (``StereoCamera.zed2()``, three markers, the IRB 4600 arm)
   on its joint path perturbed by 0.05 rad, as ``bench_outer_loop.py`` does for the paper's
   scenarios; a configuration is kept when every marker is visible. Every twist method and the
   paper's controllers (``fb`` and ``ff+fb``, adaptive: Eq. (62) and the SVD of the image Jacobian
   at every frame), fed the encoder reading q_true - d.
+* ``textured``: the textured plane (``scenarios.textured_plane()``: the free camera 1 m before it,
+  the 120 x 90 px camera of ``scenarios.textured_camera()``), for the methods that servo on the image
+  (``photometric``), which run on no other case. Configurations: seeded poses on the start ->
+  target path perturbed by 1 cm and 1 deg; each frame carries the image the scene sensor renders
+  (``SceneImageSensor.measure``), not timed with the update, but timed as a part (``scene_frame``:
+  the image and the markers' features, what the loop's sensor costs per frame for this method;
+  ``render_plane``: the warp alone).
+
+A method that refuses a case's task at reset (``InvalidParameterError``: ``ibvs-moments`` on the
+square and on physical-2's isosceles markers) is listed in ``cases[case]["refused"]`` with the
+reason, and not timed there.
 
 Every call is timed alone (``time.perf_counter``, GC off) in passes over all configurations of a
 case: one pass per method, then one per floor call, part and reference law (each pass calls one
 function back to back, as the update passes do), all of them in every round (3 warm-up rounds),
 so that all see the same machine load. JSON: ``controllers`` maps each registered method to
 ``median_us``, ``p95_us``, ``floor_us``, ``ratio_to_floor`` on its case (``case``: ``mono`` for the
-twist methods, ``stereo`` for the paper's); ``cases[case]["methods"]`` has every method on each
-case, ``floor_calls_median_us`` and ``parts_median_us`` the pieces; ``reference`` the reference
-laws; ``machine`` where and when.
+twist methods, ``irregular`` for those that refuse the square, ``stereo`` for the paper's,
+``textured`` for photometric servoing);
+``cases[case]["methods"]`` has every method that runs on each case, ``cases[case]["refused"]``
+those that refuse it, ``floor_calls_median_us`` and ``parts_median_us`` the pieces;
+``reference`` the reference laws; ``machine`` where and when. ``ibvs-polar`` and
+``ibvs-partitioned`` get ``dgesdd_L`` as their SVD floor (their own L is 8x6 and 8x4 mono, 12x6
+and 9x4 stereo, against the 8x6 and 9x6 timed); ``ibvs-moments`` (L_s* at the target) the
+product ``dot_pinv``; ``photometric`` the product L_I*^T e (``dot_LTe``: numpy, 6 x N by N, N =
+7,000 pixels).
 
 **Floor** of a method: the native calls its update cannot avoid, each timed bare on the same data
 (:data:`FLOORS`); ``floor_us`` is the sum of their medians and ``ratio_to_floor`` = median / floor.
@@ -92,27 +113,38 @@ from ibvs_youla import controllers, scenarios
 from ibvs_youla.controllers import JointReading, ServoTask
 from ibvs_youla.controllers.pbvs import theta_u
 from ibvs_youla.estimation.monocular_pose import estimate_camera_pose
+from ibvs_youla.exceptions import InvalidParameterError
 from ibvs_youla.model.camera import points_interaction_matrix, triangulate_points
+from ibvs_youla.model.luminance import BORDER_PX
+from ibvs_youla.model.textured_plane import render_plane
+from ibvs_youla.simulation.scene_sensor import SceneImageSensor
 from ibvs_youla.simulation.sensor import MarkerSensor
 
 CAMERA_RATE_HZ = 25.0  # the acceptance scenario's camera rate
 PAPER = ("fb", "ff+fb")  # the paper's controllers: stereo and an arm only
-CASES = ("mono", "stereo")
+CASES = ("mono", "irregular", "stereo", "textured")
 CASE_NAMES = {
     "mono": "ViSP tutorial-ibvs-4pts: normalized monocular camera, 4 points, free camera",
+    "irregular": "the tutorial's poses with 7 irregular coplanar points: normalized camera, free camera",
     "stereo": "physical-2: StereoCamera.zed2(), 3 markers, IRB 4600 joint path",
+    "textured": "textured plane: 120 x 90 px pinhole camera, free camera, the image of every frame",
 }
 # The native calls each method's update cannot avoid (module docstring), per case.
+_MONO_FLOORS = {
+    "ibvs-current": ("solvepnp", "dgesdd_L"),
+    "ibvs-desired": ("dot_pinv",),
+    "ibvs-mean": ("solvepnp", "dgesdd_L"),
+    "pbvs": ("solvepnp",),
+    "2.5d": ("solvepnp",),
+    "hybrid": ("solvepnp", "dgesdd_L"),
+    "mpc-ibvs": ("solvepnp", "daqp"),
+    "ibvs-polar": ("solvepnp", "dgesdd_L"),
+    "ibvs-partitioned": ("solvepnp", "dgesdd_L"),
+    "ibvs-moments": ("dot_pinv",),
+}
 FLOORS: dict[str, dict[str, tuple[str, ...]]] = {
-    "mono": {
-        "ibvs-current": ("solvepnp", "dgesdd_L"),
-        "ibvs-desired": ("dot_pinv",),
-        "ibvs-mean": ("solvepnp", "dgesdd_L"),
-        "pbvs": ("solvepnp",),
-        "2.5d": ("solvepnp",),
-        "hybrid": ("solvepnp", "dgesdd_L"),
-        "mpc-ibvs": ("solvepnp", "daqp"),
-    },
+    "mono": _MONO_FLOORS,
+    "irregular": _MONO_FLOORS,
     "stereo": {
         "ibvs-current": ("dgesdd_L",),
         "ibvs-desired": ("dot_pinv",),
@@ -121,10 +153,15 @@ FLOORS: dict[str, dict[str, tuple[str, ...]]] = {
         "2.5d": ("dgesdd_3x3",),
         "hybrid": ("dgesdd_3x3", "dgesdd_L"),
         "mpc-ibvs": ("daqp",),
+        "ibvs-polar": ("dgesdd_L",),
+        "ibvs-partitioned": ("dgesdd_L",),
         "fb": ("fk", "frame_placement", "frame_jacobian", "dgesdd_J", "dgesdd_3x3"),
         "ff+fb": ("fk", "frame_placement", "frame_jacobian", "dgesdd_J", "dgesdd_3x3"),
     },
+    "textured": {"photometric": ("dot_LTe",)},
 }
+IRREGULAR_O = np.array([[1, 0], [3, 1], [4, 4], [-1, 4], [-3, -2], [-2, -2], [-1, 1]], dtype=float) / 20.0
+IRREGULAR_O = np.column_stack((IRREGULAR_O - IRREGULAR_O.mean(axis=0), np.zeros(len(IRREGULAR_O))))  # [m]
 
 
 # ---------------------------------------------------------------------------------------- cases
@@ -136,9 +173,12 @@ def _T_O_C(t: list[float], theta_u_deg: list[float]) -> np.ndarray:
     return np.linalg.inv(cMo)
 
 
-def _mono_case(n: int, rng: np.random.Generator) -> tuple[ServoTask, list[Any], int]:
+def _mono_case(
+    n: int, rng: np.random.Generator, points_O: np.ndarray | None = None
+) -> tuple[ServoTask, list[Any], int]:
     """Task and n (frame, reading, T_O_C) of the tutorial case; and how many poses were dropped."""
-    points_O = np.array([[-0.1, -0.1, 0], [0.1, -0.1, 0], [0.1, 0.1, 0], [-0.1, 0.1, 0]], dtype=float)
+    if points_O is None:
+        points_O = np.array([[-0.1, -0.1, 0], [0.1, -0.1, 0], [0.1, 0.1, 0], [-0.1, 0.1, 0]], dtype=float)
     T_start, T_target = _T_O_C([0.15, -0.1, 1.0], [10, -10, 50]), _T_O_C([0, 0, 0.75], [0, 0, 0])
     camera = iy.PinholeCamera.normalized()
     sensor = MarkerSensor(camera, points_O)
@@ -198,19 +238,56 @@ def _stereo_case(n: int, rng: np.random.Generator) -> tuple[ServoTask, list[Any]
     return task, out, dropped
 
 
-def _controllers_for(case: str, task: ServoTask) -> dict[str, Any]:
-    """Every registered method that runs on the case, built by name with its defaults, reset."""
-    out = {}
+def _textured_case(n: int, rng: np.random.Generator) -> tuple[ServoTask, list[Any], int]:
+    """Task and n (frame with its image, None, T_O_C) before the textured plane; none dropped."""
+    scenario, camera = scenarios.textured_plane(), scenarios.textured_camera()
+    sensor = SceneImageSensor(MarkerSensor(camera, scenario.markers_O), scenario.scene)
+    T_start, T_target = np.asarray(scenario.T_O_C_start), np.asarray(scenario.T_O_C_target)
+    period = 1.0 / CAMERA_RATE_HZ
+    task = ServoTask(
+        camera=camera,
+        markers_O=scenario.markers_O,
+        feature_target=sensor.features_at(T_target),
+        T_O_C_target=T_target,
+        tick_period=period,
+        frame_period=period,
+        T_O_C_start=T_start,
+        scene=scenario.scene,
+        image_target=sensor.image_at(T_target),
+    )
+    slerp = Slerp([0.0, 1.0], Rotation.from_matrix([T_start[:3, :3], T_target[:3, :3]]))
+    out = []
+    for f in rng.random(n):
+        T = np.eye(4)
+        T[:3, :3] = (Rotation.from_rotvec(np.radians(1.0) * rng.standard_normal(3)) * slerp(f)).as_matrix()
+        T[:3, 3] = T_start[:3, 3] + f * (T_target[:3, 3] - T_start[:3, 3]) + 0.01 * rng.standard_normal(3)
+        out.append((sensor.measure(T, 0.0), None, T))
+    return task, out, 0
+
+
+def _controllers_for(case: str, task: ServoTask) -> tuple[dict[str, Any], dict[str, str]]:
+    """Every registered method that runs on the case, built by name with its defaults, reset.
+
+    And those that refuse the case's task at reset (name -> the reason). The methods that servo
+    on the image run on the textured case alone, and the others on every other case.
+    """
+    out, refused = {}, {}
     for name in controllers.names():
+        if controllers.make(name).needs_image != (case == "textured"):
+            continue
         if name in PAPER:
             if case != "stereo":
                 continue
             ctrl = controllers.make(name, adaptive=True)  # the paper's gains (YoulaSettings defaults)
         else:
             ctrl = controllers.make(name)
-        ctrl.reset(task)
+        try:
+            ctrl.reset(task)
+        except InvalidParameterError as err:
+            refused[name] = str(err)
+            continue
         out[name] = ctrl
-    return out
+    return out, refused
 
 
 # ---------------------------------------------------------------------------------------- floor data
@@ -242,6 +319,8 @@ def _jobs(case: str, task: ServoTask, ctrls: dict[str, Any], configs: list[Any])
     import daqp
     import qpsolvers
 
+    if case == "textured":
+        return _textured_jobs(task, ctrls, configs)
     camera, markers_O, n, virtual = task.camera, task.markers_O, task.n_points, task.virtual_points
     ibvs, mpc = ctrls["ibvs-current"], ctrls["mpc-ibvs"]
     target = np.asarray(task.feature_target, dtype=float)
@@ -271,7 +350,7 @@ def _jobs(case: str, task: ServoTask, ctrls: dict[str, Any], configs: list[Any])
         "part:mpc_qp_build": (mpc.qp, [(s,) for s in features]),
         "part:mpc_qpsolvers": (qpsolvers_solve, qps),
     }
-    if case == "mono":
+    if case != "stereo":
         K = np.eye(3)
         F, P_ref = camera.focal_length, np.ascontiguousarray(markers_O)
         pnp = [(P_ref, np.ascontiguousarray(s.reshape(n, 2) / F)) for s in features]
@@ -326,6 +405,26 @@ def _jobs(case: str, task: ServoTask, ctrls: dict[str, Any], configs: list[Any])
             [(camera, s.reshape(n, 3), virtual) for s in features],
         )
         jobs.update(parts)
+    return jobs
+
+
+def _textured_jobs(task: ServoTask, ctrls: dict[str, Any], configs: list[Any]) -> dict[str, Job]:
+    """The photometric update, its floor (L_I*^T e) and the per-frame cost of its sensor."""
+    scenario = scenarios.textured_plane()
+    camera, scene = task.camera, task.scene
+    sensor = SceneImageSensor(MarkerSensor(camera, scenario.markers_O), scene)
+    photometric = ctrls["photometric"]
+    b = BORDER_PX
+    inner = (slice(b, -b), slice(b, -b))  # the feature's pixels: what the update reads
+    L_T = np.ascontiguousarray(photometric.interaction_matrix().T)
+    errors = [(f.image[inner] - task.image_target[inner]).ravel() for f, _, _ in configs]
+    poses = [T for _, _, T in configs]
+    jobs: dict[str, Job] = {
+        name: (ctrl.update, [(f, r) for f, r, _ in configs]) for name, ctrl in ctrls.items()
+    }
+    jobs["floor:dot_LTe"] = (L_T.dot, [(e,) for e in errors])
+    jobs["part:scene_frame"] = (sensor.measure, [(T, 0.0) for T in poses])
+    jobs["part:render_plane"] = (render_plane, [(camera, scene, T) for T in poses])
     return jobs
 
 
@@ -438,14 +537,26 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
 
     rng = np.random.default_rng(args.seed)
     setup: dict[str, Any] = {}
-    for case, build in (("mono", _mono_case), ("stereo", _stereo_case)):
-        task, configs, dropped = build(args.configs, rng)
-        ctrls = _controllers_for(case, task)
+    builders = {
+        "mono": _mono_case,
+        "irregular": lambda n, rng: _mono_case(n, rng, IRREGULAR_O),
+        "stereo": _stereo_case,
+        "textured": _textured_case,
+    }
+    for case in CASES:
+        task, configs, dropped = builders[case](args.configs, rng)
+        ctrls, refused = _controllers_for(case, task)
         for ctrl in ctrls.values():  # every method runs on every configuration (untimed check)
             for frame, reading, _ in configs:
                 ctrl.update(frame, reading)
         jobs = _jobs(case, task, ctrls, configs)
-        setup[case] = {"configs": configs, "dropped": dropped, "controllers": ctrls, "jobs": jobs}
+        setup[case] = {
+            "configs": configs,
+            "dropped": dropped,
+            "controllers": ctrls,
+            "refused": refused,
+            "jobs": jobs,
+        }
     mono = setup["mono"]
     worker = None
     if args.mvtb_python:
@@ -527,17 +638,19 @@ def _report(
             "methods": {
                 name: _entry(stats, name, FLOORS[case].get(name)) for name in setup[case]["controllers"]
             },
+            "refused": setup[case]["refused"],
             "floor_calls_median_us": medians("floor:"),
             "parts_median_us": medians("part:"),
             "stats": stats,
         }
-    # One entry per method: the tutorial case for the twist methods, stereo physical-2 for the paper's.
-    primary = {
-        name: {**entry, "case": case}
-        for case in CASES
-        for name, entry in cases[case]["methods"].items()
-        if (name in PAPER) == (case == "stereo")
-    }
+    # One entry per method: the tutorial case for the twist methods (the irregular points for those
+    # that refuse the square), stereo physical-2 for the paper's, the textured plane for those that
+    # servo on the image.
+    primary: dict[str, Any] = {}
+    for case in ("stereo", "irregular", "mono", "textured"):  # later cases take precedence
+        for name, entry in cases[case]["methods"].items():
+            if case == "textured" or (name in PAPER) == (case == "stereo"):
+                primary[name] = {**entry, "case": case}
     mono_stats = cases["mono"]["stats"]
     reference: dict[str, Any] = {
         key.split(":", 1)[1]: {k: mono_stats[key][k] for k in ("median_us", "p95_us", "n")}
@@ -575,13 +688,13 @@ def _fmt(x: float | None, digits: int = 1) -> str:
 def _print(r: dict[str, Any]) -> None:
     n = f"{r['settings']['configs']} x {r['settings']['repeats']}"
     print(f"one control update, median / p95 / floor [us] (n = {n} per case)")
-    header = f"{'method':<14} {'case':<7} {'median':>8} {'p95':>8} {'floor':>8} {'ratio':>6}  floor calls"
+    header = f"{'method':<16} {'case':<9} {'median':>8} {'p95':>8} {'floor':>8} {'ratio':>6}  floor calls"
     print(header)
     for case in CASES:
         for name, e in r["cases"][case]["methods"].items():
             calls = "+".join(e["floor_calls"]) if e["floor_calls"] else "unknown"
             print(
-                f"{name:<14} {case:<7} {_fmt(e['median_us']):>8} {_fmt(e['p95_us']):>8} "
+                f"{name:<16} {case:<9} {_fmt(e['median_us']):>8} {_fmt(e['p95_us']):>8} "
                 f"{_fmt(e['floor_us']):>8} {_fmt(e['ratio_to_floor']):>6}  {calls}"
             )
     for case in CASES:

@@ -22,6 +22,19 @@ the campaigns' free-camera rate), ``--classical-duration`` seconds per run:
   four coplanar points (the general motion of the Gans et al. suite, ``analysis.suites``): the
   depths come from the monocular pose, OpenCV's SQPnP at every frame.
 
+**Per robot** (``robots[name]``): the IRB 4600, the UR5 (closed-form IK of the UR family) and the
+Panda (seven joints: the warm-started IK nearest the previous estimate, Eq. (62)), each on its own
+seeded scenario (``scenarios.for_arm(arm, seed=0)``), measured in the same run:
+
+* ``paper``: ``"ff+fb"``, adaptive, on the dynamic arm, joint loop 1 kHz and camera 100 Hz (the
+  library's default), ``--duration`` seconds: ``realtime_factor`` (target: at least 20x on every
+  robot);
+* ``classical``: ``"ibvs-current"`` on the kinematic arm at 25 Hz, ``--classical-duration``
+  seconds: ``realtime_factor`` and ``cost_vs_irb4600``, its median wall time over the IRB 4600's
+  (target: at most 1.5).
+
+Their repeats are interleaved, a round running every robot's case once.
+
 ``realtime_factor`` = simulated time / median wall time of ``simulate(...)`` (arm and camera
 built beforehand; the run's own set-up is included). The cost split is the servo loop's own
 phase timing of the median run (``result.metadata["phase_seconds"]``): the plant step (RK4 of
@@ -36,6 +49,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -55,6 +69,8 @@ from ibvs_youla.simulation.settings import SimulationSettings
 SETTINGS = {"paper": SimulationSettings.paper(), "two-rate": SimulationSettings(camera_rate_hz=100.0)}
 CLASSICAL_RATE_HZ = 25.0  # [Hz] ViSP's 40 ms period
 TARGETS = {"paper": 20.0, "two-rate": 50.0, "classical": 1000.0}  # targets: x real time, at least
+ROBOTS = ("irb4600", "ur5", "panda")
+ROBOT_TARGETS = {"paper": 20.0, "classical_cost_vs_irb4600": 1.5}  # x real time at least; ratio at most
 
 
 CLASSICAL_SETTINGS = SimulationSettings(joint_rate_hz=CLASSICAL_RATE_HZ, camera_rate_hz=CLASSICAL_RATE_HZ)
@@ -182,19 +198,28 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             "split": _split(result),
         }
         _print(name, classical[name]["realtime_factor"], wall, args.classical_duration, classical[name])
+    robots = _robot_rows(args)
     cores = cpu.stop()
 
     met = {
         "paper": {n: f["paper"] >= TARGETS["paper"] for n, f in realtime.items()},
         "two-rate": {n: f["two-rate"] >= TARGETS["two-rate"] for n, f in realtime.items()},
         "classical": {n: c["realtime_factor"] >= TARGETS["classical"] for n, c in classical.items()},
+        "robots": {
+            n: {
+                "paper": r["paper"]["realtime_factor"] >= ROBOT_TARGETS["paper"],
+                "classical": r["classical"]["cost_vs_irb4600"] <= ROBOT_TARGETS["classical_cost_vs_irb4600"],
+            }
+            for n, r in robots.items()
+        },
     }
     report = {
         "benchmark": "simulation",
         "realtime_factor": realtime,
         "cases": cases,
         "classical": classical,
-        "targets": {"min_realtime_factor": TARGETS, "met": met},
+        "robots": robots,
+        "targets": {"min_realtime_factor": TARGETS, "robots": ROBOT_TARGETS, "met": met},
         "cpu": cores,
         "settings": {
             "duration_s": args.duration,
@@ -213,11 +238,64 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     return report
 
 
+def _robot_rows(args: argparse.Namespace) -> dict[str, dict[str, Any]]:
+    """The paper's controller and classical IBVS on each robot of ROBOTS (module docstring).
+
+    The repeats are interleaved (each round runs every robot's case once), so that a change of the
+    machine's load between the rounds shows in every robot's times alike, not in one robot's ratio.
+    """
+    runs: dict[tuple[str, str], Any] = {}
+    rows: dict[str, dict[str, Any]] = {}
+    for name in ROBOTS:
+        arm = Arm.from_robot(name)
+        case = {"scenario": scenarios.for_arm(arm, seed=0), "camera": default_camera(), "arm": arm}
+        rows[name] = {"n_joints": arm.nq, "ik": arm.ik_method}
+        for label, method, plant, duration, settings in (
+            ("paper", "ff+fb", "dynamic", args.duration, SETTINGS["two-rate"]),
+            ("classical", "ibvs-current", "kinematic", args.classical_duration, CLASSICAL_SETTINGS),
+        ):
+            run = partial(ibvs_youla.simulate, controller=method, plant=plant, settings=settings, **case)
+            run(duration=0.05)  # warm-up (the compiled kernels of this arm's IK)
+            runs[(name, label)] = (partial(run, duration=duration), duration)
+    walls: dict[tuple[str, str], list[float]] = {key: [] for key in runs}
+    results: dict[tuple[str, str], list[Any]] = {key: [] for key in runs}
+    for _ in range(args.repeats):
+        for key, (run, _duration) in runs.items():
+            t0 = perf_counter()
+            results[key].append(run())
+            walls[key].append(perf_counter() - t0)
+    for (name, label), (_run, duration) in runs.items():
+        times = walls[(name, label)]
+        result = results[(name, label)][int(np.argsort(times)[len(times) // 2])]
+        wall = float(np.median(times))
+        rows[name][label] = {
+            "realtime_factor": duration / wall,
+            "wall_median_s": wall,
+            "wall_s": times,
+            "status": result.metadata["status"],
+            "update_time_median_us": float(np.median(result.update_time) * 1e6),
+            "split": _split(result),
+        }
+        _print(f"{name}/{label}", duration / wall, wall, duration, rows[name][label])
+    for row in rows.values():
+        row["classical"]["cost_vs_irb4600"] = (
+            row["classical"]["wall_median_s"] / rows["irb4600"]["classical"]["wall_median_s"]
+        )
+    return rows
+
+
 def headline(r: dict[str, Any]) -> dict[str, Any]:
     """The figures kept in the report's history."""
     return {
         "realtime_factor": r["realtime_factor"],
         "classical": {n: c["realtime_factor"] for n, c in r.get("classical", {}).items()},
+        "robots": {
+            n: {
+                "paper": c["paper"]["realtime_factor"],
+                "classical_cost_vs_irb4600": c["classical"]["cost_vs_irb4600"],
+            }
+            for n, c in r.get("robots", {}).items()
+        },
         "other_cores": r.get("cpu", {}).get("other_cores"),
     }
 

@@ -124,6 +124,19 @@ def simulation(r: Report) -> str:
             f"{_met(met.get('classical', {}).get(name))} | {_num(split['dynamics_us_per_step'])} | "
             f"{_num(split['outer_us_per_frame'])} | {_num(split['joint_control_us_per_step'])} |"
         )
+    robot_met = met.get("robots", {})
+    for name, row in r.get("robots", {}).items():
+        paper, classical, ok = row["paper"], row["classical"], robot_met.get(name, {})
+        rows.append(
+            f"| {name} ({row['n_joints']} joints, IK {row['ik']}), ff+fb adaptive, dynamic arm, "
+            f"1 kHz / 100 Hz | **{_num(paper['realtime_factor'])}x** | >= 20x {_met(ok.get('paper'))} | "
+            + _split_cells(paper["split"])
+        )
+        rows.append(
+            f"| {name}, ibvs-current, kinematic arm, 25 Hz | **{_num(classical['realtime_factor'], 0)}x** "
+            f"({_num(classical['cost_vs_irb4600'], 2)}x the IRB 4600's wall time) | <= 1.5x the IRB "
+            f"4600's {_met(ok.get('classical'))} | " + _split_cells(classical["split"])
+        )
     settings = r["settings"]
     return (
         "\n".join(rows)
@@ -132,30 +145,58 @@ def simulation(r: Report) -> str:
     )
 
 
+def _split_cells(split: dict[str, Any]) -> str:
+    """The plant, frame and tick-control cells of a run's split."""
+    return (
+        f"{_num(split['dynamics_us_per_step'])} | {_num(split['outer_us_per_frame'])} | "
+        f"{_num(split['joint_control_us_per_step'])} |"
+    )
+
+
 def controllers(r: Report) -> str:
-    """One control update of every method, on both cases."""
+    """One control update of every method, on both cases (a method that refuses the square: on 7 points;
+    one that servoes on the image: on the textured plane)."""
     rows = [
         "| method | mono: median / p95 [us] | floor [us] | ratio | stereo: median / p95 [us] "
         "| floor [us] | ratio |",
         "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
-    mono, stereo = r["cases"]["mono"]["methods"], r["cases"]["stereo"]["methods"]
+    cases = r["cases"]
+    mono, stereo = cases["mono"]["methods"], cases["stereo"]["methods"]
+    irregular = cases.get("irregular", {}).get("methods", {})  # reports before the case have none
+    textured = cases.get("textured", {}).get("methods", {})
     for name in r["controllers"]:
         cells = []
-        for case in (mono, stereo):
-            e = case.get(name)
+        if name in textured:  # it servoes on the image: the textured plane is its case (mono columns)
+            e = textured[name]
+            cells = [
+                f"{_num(e['median_us'])} / {_num(e['p95_us'])} (textured plane) | {_num(e['floor_us'])} | "
+                f"{_num(e['ratio_to_floor'])}",
+                "monocular only | | ",
+            ]
+        for case in (mono, stereo) if not cells else ():
+            e, note = case.get(name), ""
+            if e is None and case is mono and name in irregular:
+                e, note = irregular[name], " (7 points)"
             if e is None:
-                cells.append("stereo and arm only | | ")
+                cells.append("stereo and arm only | | " if name in ("fb", "ff+fb") else "refused | | ")
             else:
                 cells.append(
-                    f"{_num(e['median_us'])} / {_num(e['p95_us'])} | {_num(e['floor_us'])} | "
+                    f"{_num(e['median_us'])} / {_num(e['p95_us'])}{note} | {_num(e['floor_us'])} | "
                     f"{_num(e['ratio_to_floor'])}"
                 )
         rows.append(f"| `{name}` | {' | '.join(cells)} |")
     settings = r["settings"]
+    parts = cases.get("textured", {}).get("parts_median_us", {})
+    frame = (
+        f" The textured plane's frame (120 x 90 px image and markers) costs {_num(parts['scene_frame'])} us "
+        f"of which the warp {_num(parts['render_plane'])} us."
+        if {"scene_frame", "render_plane"} <= set(parts)
+        else ""
+    )
     return (
         "\n".join(rows)
-        + f"\n\n{settings['configs']} configurations x {settings['repeats']} rounds per case. "
+        + f"\n\n{settings['configs']} configurations x {settings['repeats']} rounds per case.{frame} "
         f"Measured {_when(r)}.\n"
     )
 
@@ -293,6 +334,26 @@ def campaign(r: Report) -> str:
     )
 
 
+def cli(r: Report) -> str:
+    """The command line's answers without a simulation: median and 95th percentile of each call."""
+    rows = ["| call | median [ms] | p95 [ms] |", "| --- | ---: | ---: |"]
+    for c in r["calls"].values():
+        rows.append(
+            f"| `ibvs-youla {' '.join(c['argv'])}` | {_num(c['median_ms'], 0)} | {_num(c['p95_ms'], 0)} |"
+        )
+    labels = {
+        "interpreter": "reference: `python -c pass` (the interpreter's start)",
+        "eager_imports": "reference: importing what the parser imported before it was light",
+    }
+    for name, c in r["reference"].items():
+        rows.append(f"| {labels.get(name, name)} | {_num(c['median_ms'], 0)} | {_num(c['p95_ms'], 0)} |")
+    return (
+        "\n".join(rows)
+        + f"\n\nEach call a new process ({r['settings']['command']}), {r['settings']['repeats']} rounds. "
+        f"Measured {_when(r)}.\n"
+    )
+
+
 def _minutes(date: str | None) -> float | None:
     """Minutes since the epoch of an ISO date, or None."""
     import datetime
@@ -359,6 +420,7 @@ def targets(reports: dict[str, Report | None]) -> str:
 
     rows = ["| target | measured | | when, machine load |", "| --- | --- | --- | --- |"]
     outer, sim, camp = reports.get("outer_loop"), reports.get("simulation"), reports.get("campaign")
+    cli_ = reports.get("cli")
     if outer is not None:
         rows.append(
             f"| adaptive outer update <= 2.5x its floor | {_num(outer['ratio_to_floor'], 2)}x "
@@ -378,6 +440,20 @@ def targets(reports: dict[str, Report | None]) -> str:
             rows.append(
                 f"| classical IBVS, {name}, 25 Hz: >= 1,000x | {_num(c['realtime_factor'], 0)}x | "
                 f"{_met(c['realtime_factor'] >= 1000)} | {load(sim)} |"
+            )
+        robots = {n: r for n, r in sim.get("robots", {}).items() if n != "irb4600"}
+        if robots:
+            factors = {n: r["paper"]["realtime_factor"] for n, r in robots.items()}
+            costs = {n: r["classical"]["cost_vs_irb4600"] for n, r in robots.items()}
+            rows.append(
+                "| the paper's controller on other arms, dynamic, 1 kHz / 100 Hz: >= 20x real time | "
+                + ", ".join(f"{n} {_num(v)}x" for n, v in factors.items())
+                + f" | {_met(min(factors.values()) >= 20)} | {load(sim)} |"
+            )
+            rows.append(
+                "| classical IBVS on other arms, kinematic, 25 Hz: <= 1.5x the IRB 4600's cost | "
+                + ", ".join(f"{n} {_num(v, 2)}x" for n, v in costs.items())
+                + f" | {_met(max(costs.values()) <= 1.5)} | {load(sim)} |"
             )
     peer = reports.get("peers")
     if peer is not None and peer.get("ratios"):
@@ -423,6 +499,12 @@ def targets(reports: dict[str, Report | None]) -> str:
                 f"{_num(p['arm_1000x7_minutes']['2'])} min | {_met(p['arm_1000x7_minutes']['2'] < 30.0)} | "
                 f"{load(camp)} |"
             )
+    if cli_ is not None:
+        slowest = cli_["slowest"]
+        rows.append(
+            f"| every `ibvs-youla` help and argument error answers in < 0.5 s | slowest `{slowest['call']}` "
+            f"{_num(slowest['median_ms'], 0)} ms | {_met(slowest['median_ms'] < 500.0)} | {load(cli_)} |"
+        )
     return "\n".join(rows) + "\n"
 
 
@@ -433,6 +515,7 @@ TABLES: dict[str, tuple[str, Callable[[Report], str]]] = {
     "peers": ("peers", peers),
     "batch": ("batch", batch),
     "campaign": ("campaign", campaign),
+    "cli": ("cli", cli),
 }
 
 

@@ -8,10 +8,10 @@ One command, from the repository's root with an editable install:
 Steps: (1) warm Numba's cache (compile or load every kernel once, so that no timing includes
 it); (2) run ``bench_outer_loop``, ``bench_simulation``, ``bench_controllers``, ``bench_peers``
 (ViSP 3.5 and MVTB-python on the same work: it builds its C++ harness and makes MVTB's venv),
-``bench_batch`` (simulate_batch beside ViSP's C++ iteration) and ``bench_campaign`` one after the
-other, each writing ``reports/<name>.json`` (latest report at the top level, every run's headline
-appended to its ``history``); (3) rewrite the generated
-blocks of ``README.md`` from the reports (:mod:`figures`). A benchmark that fails is reported
+``bench_batch`` (simulate_batch beside ViSP's C++ iteration), ``bench_campaign`` and ``bench_cli`` one
+after the other, each writing ``reports/<name>.json`` (latest report at the top level, every run's
+headline appended to its ``history``); (3) rewrite the generated blocks of ``README.md`` from the
+reports (:mod:`figures`). A benchmark that fails is reported
 and the others still run; its README block keeps the previous figures; the exit code is 1.
 The load of the machine (load averages, and the cores other jobs used during each benchmark)
 is in every report and printed at the end: figures taken while other jobs used a large share
@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 HERE = Path(__file__).resolve().parent
-ORDER = ("outer_loop", "simulation", "controllers", "peers", "batch", "campaign")
+ORDER = ("outer_loop", "simulation", "controllers", "peers", "batch", "campaign", "cli")
 QUICK = {
     "outer_loop": ["--configs", "20", "--repeats", "2", "--rebuilds", "2"],
     "simulation": ["--duration", "0.5", "--classical-duration", "4", "--repeats", "1"],
@@ -59,6 +59,7 @@ QUICK = {
         "5",
     ],
     "campaign": ["--cases", "2", "--arm-cases", "1", "--duration", "4", "--arm-duration", "1"],
+    "cli": ["--repeats", "2"],
 }
 
 

@@ -1,8 +1,11 @@
-"""Shared test configuration: hypothesis runs derandomized, so every run draws the same examples."""
+"""Shared test configuration: hypothesis runs derandomized (every run draws the same examples), and every
+temporary file of the session stays under pytest's temporary folder."""
 
 from __future__ import annotations
 
+import os
 import subprocess
+import tempfile
 
 import pytest
 from hypothesis import settings
@@ -15,6 +18,32 @@ from ibvs_youla.model.camera import StereoCamera
 # shared, and timing is not what these property tests check.
 settings.register_profile("ibvs-youla", derandomize=True, deadline=None)
 settings.load_profile("ibvs-youla")
+
+
+@pytest.fixture(scope="session", autouse=True)
+def scratch_inside_pytest_tmp(tmp_path_factory):
+    """Every temporary file of the session, this process's and its children's, under pytest's basetemp.
+
+    Python's ``tempfile`` (here and, through TMPDIR, in every subprocess: CLI runs, Dask workers,
+    Jupyter kernels, whose notebooks make their folders with ``mkdtemp``), Jupyter's connection
+    files (JUPYTER_RUNTIME_DIR) and Dask's worker scratch space (its ``temporary-directory``) go to
+    one folder of the session, which pytest keeps or removes with its others.
+    """
+    scratch = tmp_path_factory.mktemp("scratch")
+    names = ("TMPDIR", "JUPYTER_RUNTIME_DIR", "DASK_TEMPORARY_DIRECTORY")
+    saved = {name: os.environ.get(name) for name in names}
+    os.environ.update({name: str(scratch) for name in names})
+    saved_tempdir, tempfile.tempdir = tempfile.tempdir, str(scratch)
+    import dask
+
+    with dask.config.set({"temporary-directory": str(scratch)}):
+        yield scratch
+    tempfile.tempdir = saved_tempdir
+    for name, value in saved.items():
+        if value is None:
+            os.environ.pop(name, None)
+        else:
+            os.environ[name] = value
 
 
 @pytest.fixture(scope="module")

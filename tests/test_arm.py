@@ -171,7 +171,7 @@ def test_with_hand_eye_moves_the_camera_frame_only(arm):
     belief = arm.with_hand_eye(T_E_C_BELIEF)
     np.testing.assert_allclose(belief.T_E_C, T_E_C_BELIEF, rtol=0, atol=1e-15)
     assert belief.name == "ABB IRB 4600-45/2.05 (paper actuator) (T_E_C moved 3.74 mm, 1 deg)"
-    assert repr(belief) == f"Arm({belief.name!r}, nq=6, ik=closed-form)"
+    assert repr(belief) == f"Arm({belief.name!r}, nq=6, ik=spherical-wrist)"
     assert belief.ik_parameters == arm.ik_parameters
     for name in ("q_min", "q_max", "dq_max", "tau_max", "armature", "damping"):
         np.testing.assert_array_equal(getattr(belief, name), getattr(arm, name))
@@ -279,7 +279,8 @@ def test_bad_urdf_files_raise_model_load_error(tmp_path):
         Arm.from_urdf(garbage)
     with pytest.raises(ModelLoadError, match="frame 'eye'"):
         Arm.from_urdf(urdf_path("abb_irb4600_45_205.urdf"), camera_frame="eye")
-    with pytest.raises(ModelLoadError, match="last joint"):
+    fewer = r"camera frame 'link_3': 3 joint\(s\) on the chain .* fewer than 6"
+    with pytest.raises(ModelLoadError, match=fewer):
         Arm.from_urdf(urdf_path("abb_irb4600_45_205.urdf"), camera_frame="link_3")
 
 
@@ -292,7 +293,8 @@ def test_a_non_six_dof_urdf_is_rejected(tmp_path):
         '<joint name="j2" type="revolute"><parent link="b"/><child link="c"/><axis xyz="0 0 1"/>'
         '<limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>'
     )
-    with pytest.raises(ModelLoadError, match="expected 6"):
+    fewer = r"2 joint\(s\) on the chain from the base \(\['j1', 'j2'\]\), fewer than 6"
+    with pytest.raises(ModelLoadError, match=fewer):
         Arm.from_urdf(two_link, camera_frame="c")
 
 
@@ -346,7 +348,7 @@ def test_six_joint_urdf_helper_loads_when_valid(tmp_path):
 @pytest.mark.parametrize(
     ("changes", "message"),
     [
-        ({"joint3": "prismatic"}, r"joint 'j3' \(JointModelPZ\) is not a bounded revolute joint"),
+        ({"joint3": "planar"}, r"joint 'j3' \(JointModelPlanar\) on the chain .* is a planar joint"),
         (
             {"lower": "1", "upper": "-1"},
             r"joint 'j3' <limit>: received lower=1, upper=-1; valid: finite .*lower < upper",
@@ -356,7 +358,7 @@ def test_six_joint_urdf_helper_loads_when_valid(tmp_path):
         ({"effort": "0"}, r"joint 'j3' <limit effort>: received '0'; valid: a finite number > 0"),
     ],
 )
-def test_a_joint_that_is_not_a_bounded_revolute_is_rejected(tmp_path, changes, message):
+def test_a_joint_that_is_not_revolute_or_prismatic_or_lacks_limits_is_rejected(tmp_path, changes, message):
     path = six_joint_urdf(tmp_path, **changes)
     with pytest.raises(ModelLoadError, match=message) as info:
         Arm.from_urdf(path, camera_frame="link_6")
@@ -382,13 +384,13 @@ def test_missing_resources_are_named(tmp_path):
 
 def test_irb4600_checks_its_urdf_against_errata_1(tmp_path, monkeypatch):
     """A shipped URDF whose wrist offset d4 is not ERRATA 1's 0.960 m is refused, not silently used."""
-    import ibvs_youla.model.arm as arm_module
+    import ibvs_youla.model.robots as robots_module
 
     text = urdf_path("abb_irb4600_45_205.urdf").read_text()
     assert text.count('<origin xyz="0 0 0.96" ') == 1
     edited = tmp_path / "abb_irb4600_45_205.urdf"
     edited.write_text(text.replace('<origin xyz="0 0 0.96" ', '<origin xyz="0 0 0.97" '))
-    monkeypatch.setattr(arm_module, "urdf_path", lambda name: edited)
+    monkeypatch.setattr(robots_module, "urdf_path", lambda name: edited)
     message = r"URDF geometry .*d4=0\.97.* differs from ERRATA 1 .*d4=0\.96"
     with pytest.raises(ModelLoadError, match=message) as info:
         Arm.irb4600()

@@ -26,9 +26,12 @@ def run(capsys, argv):
 
 
 def one_error_line(err):
-    """The one line a terminal shows: a progress bar's carriage-return redraws are not lines."""
+    """The one error line a terminal shows: a progress bar's carriage-return redraws are not lines, and a
+    mistyped (or missing) command or option has the usage before it."""
     lines = [line.split("\r")[-1] for line in err.split("\n")]
     lines = [line for line in lines if line.strip()]
+    if lines[0].startswith("usage: ibvs-youla"):
+        lines = [line for line in lines[1:] if not line.startswith(" ")]  # wrapped usage lines are indented
     assert len(lines) == 1, err
     assert lines[0].startswith("ibvs-youla: error: "), err
     assert "Traceback" not in err
@@ -134,6 +137,29 @@ USAGE = [
     pytest.param(("reproduce", "--out", "UNDER_FILE"), "--out", id="reproduce-out-under-a-file"),
     pytest.param(("view", "--scenario", "paper-1", "--speed", "0"), "--speed", id="view-speed-0"),
     pytest.param(("view", "--scenario", "paper-1", "--fps", "-1"), "--fps", id="view-fps-negative"),
+    pytest.param(
+        ("campaign", "--cases", "100000000000", "--family", "free-planar", "--workers", "0", "--out", "DIR"),
+        "--cases",
+        id="campaign-cases-too-many-for-memory",
+    ),
+    pytest.param(
+        ("campaign", "--cases", "1", "--scheduler", "tcp://127.0.0.1:99999", "--out", "DIR"),
+        "--scheduler",
+        id="campaign-scheduler-port-out-of-range",
+    ),
+    pytest.param(("robustness", "--axis", "noise", "--out", "FILE"), "--out", id="robustness-out-is-a-file"),
+    pytest.param(
+        ("compare", "--scenario", "gans-rz-30", "--plant", "dynamic", "--out", "DIR"),
+        "--plant",
+        id="compare-suite-task-on-an-arm-plant",
+    ),
+    pytest.param(
+        ("compare", "--scenario", "paper-1", "--duration", "1e-6", "--no-plots", "--out", "DIR"),
+        "--duration",
+        id="compare-duration-below-one-tick",
+    ),
+    pytest.param((*SIM, "--plant", "free-camera"), "free-camera", id="simulate-joint-controller-free-camera"),
+    pytest.param((*SIM, "--out", "/proc/ibvs-youla-out"), "--out", id="simulate-out-cannot-be-created"),
     pytest.param(("bogus",), "bogus", id="unknown-command"),
     pytest.param((), "COMMAND", id="no-command"),
     pytest.param(("--debug",), "COMMAND", id="debug-without-command"),
@@ -148,6 +174,27 @@ def test_argument_errors_exit_2_with_one_line_naming_the_flag(capsys, paths, arg
     assert flag in line
 
 
+def test_a_folder_that_cannot_be_created_says_so_and_why(capsys):
+    code, _, err = run(capsys, (*SIM, "--out", "/proc/ibvs-youla-out/run"))
+    line = one_error_line(err)
+    assert code == 2
+    assert "the output folder cannot be created (No such file or directory: /proc/ibvs-youla-out)" in line
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        pytest.param((*SIM, "--plant", "free-camera"), id="simulate-plant-the-controller-cannot-drive"),
+        pytest.param((*SIM, "--duration", "1e12"), id="simulate-duration-too-long"),
+        pytest.param(("compare", "--scenario", "paper-1", "--duration", "1e-6", "--no-plots"), id="compare"),
+    ],
+)
+def test_a_refused_run_leaves_no_output_folder(capsys, tmp_path, argv):
+    code, _, err = run(capsys, (*argv, "--out", str(tmp_path / "out" / "run")))
+    assert code == 2, err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_refused_run_says_how_to_make_it_fit(capsys):
     _, _, err = run(capsys, (*SIM, "--duration", "1e12"))
     line = one_error_line(err)
@@ -160,7 +207,7 @@ def test_an_out_file_is_left_untouched(capsys, paths):
         assert f.read() == "not a folder\n"
 
 
-# ------------------------------------------------------------------- runtime and environment errors: exit 1
+# ------------------------------------------------------------------- configuration files: exit 2
 def _write(tmp_path, content, name="run.toml"):
     path = tmp_path / name
     if isinstance(content, bytes):
@@ -170,7 +217,7 @@ def _write(tmp_path, content, name="run.toml"):
     return str(path)
 
 
-RUNTIME = [
+CONFIG = [
     pytest.param(b"[settings]\nzeta = 10.0 # \xe9t\xe9\n", "UTF-8", id="config-latin-1"),
     pytest.param(b"\xff\xfe\x00[\x00s\x00", "UTF-8", id="config-utf-16"),
     pytest.param(b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", "UTF-8", id="config-binary"),
@@ -183,13 +230,14 @@ RUNTIME = [
 ]
 
 
-@pytest.mark.parametrize(("content", "fragment"), RUNTIME)
-def test_config_errors_exit_1_with_one_line(capsys, tmp_path, content, fragment):
+@pytest.mark.parametrize(("content", "fragment"), CONFIG)
+def test_config_errors_exit_2_with_one_line_and_write_nothing(capsys, tmp_path, content, fragment):
     path = _write(tmp_path, content)
     code, _, err = run(capsys, (*SIM, "--config", path, "--out", str(tmp_path / "out")))
     line = one_error_line(err)
-    assert code == 1, err
+    assert code == 2, err
     assert fragment in line
+    assert not (tmp_path / "out").exists()
 
 
 def test_config_errors_name_the_file(capsys, tmp_path):
@@ -197,9 +245,9 @@ def test_config_errors_name_the_file(capsys, tmp_path):
     _, _, err = run(capsys, ("design", "--config", path))
     assert path in one_error_line(err)
     code, _, err = run(capsys, ("design", "--config", str(tmp_path)))  # a folder
-    assert code == 1 and str(tmp_path) in one_error_line(err)
+    assert code == 2 and str(tmp_path) in one_error_line(err)
     code, _, err = run(capsys, ("design", "--config", str(tmp_path / "missing.toml")))
-    assert code == 1 and "missing.toml" in one_error_line(err)
+    assert code == 2 and "missing.toml" in one_error_line(err)
 
 
 def test_a_full_disk_is_one_line_exit_1(capsys, tmp_path, monkeypatch):
@@ -229,7 +277,7 @@ def test_an_unexpected_error_is_one_line_that_points_to_debug(capsys, tmp_path, 
 def test_debug_shows_the_traceback(capsys, tmp_path):
     path = _write(tmp_path, "[settings]\nzeta = '10'\n")
     code, _, err = run(capsys, ("--debug", "design", "--config", path))
-    assert code == 1
+    assert code == 2
     assert "Traceback" in err and "ConfigError" in err and "settings.zeta" in err
     code, _, err = run(capsys, ("--debug", "design", "--zeta", "1e300"))
     assert code == 2 and "Traceback" in err and "--zeta" in err

@@ -544,6 +544,9 @@ PARAMS = {
     "2.5d": ("gain", "rotation_from", "reference_point"),
     "hybrid": ("gain", "margin", "start_mode", "min_dwell"),
     "mpc-ibvs": ("horizon", "q_weight", "r_weight", "v_max", "margin", "solver", "fallback"),
+    "ibvs-polar": ("gain", "wrap"),
+    "ibvs-partitioned": ("gain",),
+    "ibvs-moments": ("interaction", "gain"),
 }
 
 

@@ -129,6 +129,7 @@ def test_temporary_files_are_not_rows(tmp_path):
     (tmp_path / "rows").mkdir()
     writer = RowWriter(tmp_path, batch_rows=2, batch_seconds=1e9)
     row = {name: (0.5 if kind is float else 1 if kind is int else "x") for name, kind in COLUMNS.items()}
+    row.update(outcome="reached", status="complete")  # values a run has (a part with others is damaged)
     assert writer.add({**row, "key": "a"}) is None and writer.seconds_until_due() > 0.0
     part = writer.add({**row, "key": "b"})  # the second row completes the batch
     assert part is not None and part.name.startswith("part-") and writer.written == 2 and len(writer) == 0
@@ -168,7 +169,8 @@ def test_without_controllers_every_method_the_plant_takes_runs(capsys, tmp_path)
     assert code == 2  # --out is required
     argv = ("campaign", "--family", "free-planar", "--cases", "1", "--duration", "0.2", "--workers", "0")
     code, stdout, _ = _cli(capsys, *argv, "--out", str(tmp_path / "all"))
-    twist = [n for n in controllers.names() if n not in ("fb", "ff+fb")]  # fb, ff+fb command joints
+    # fb, ff+fb command joints; photometric servoes on the image of a scene, which free-planar has not
+    twist = [n for n in controllers.names() if n not in ("fb", "ff+fb", "photometric")]
     assert code == 0 and f"1 cases x {len(twist)} methods" in stdout
     assert sorted(read_rows(tmp_path / "all")["controller"]) == sorted(twist)
 
@@ -269,13 +271,17 @@ def test_a_real_cluster_losing_a_worker_stores_every_row_once(tmp_path, referenc
 
 def test_a_stopped_worker_times_out_its_run_and_every_row_is_stored_once(tmp_path, reference, cluster):
     """A worker stopped with SIGSTOP (a frozen node, a run stuck in a solver) holds its runs forever;
-    past the run timeout they run again on the other worker, so the campaign ends with every row once."""
+    past the run timeout they run again on the other worker, where they finish: every row once, each
+    reached (the workers are warmed first: a fresh worker's first run, its imports included, may take
+    longer than this test's 3 s timeout on a loaded machine, and would be timed out too)."""
     address, _, workers = cluster
     out = tmp_path / "stopped"
     definition = CampaignDefinition(**DEFINITION)
     outcome: list = []
     with Client(address, timeout=10) as observer:
         pids = observer.run(os.getpid)
+        warm = lambda spec: __import__("ibvs_youla.campaign.run").campaign.run.run_spec(spec)  # noqa: E731
+        observer.run(warm, definition.specs()[0].to_json())  # imports and compiled code, on both workers
         thread = threading.Thread(
             target=lambda: outcome.append(
                 run_campaign(
@@ -305,12 +311,9 @@ def test_a_stopped_worker_times_out_its_run_and_every_row_is_stored_once(tmp_pat
             victim.kill()
     (summary,) = outcome
     rows = read_rows(out)
-    assert len(rows) == RUNS and not rows["key"].duplicated().any()
-    assert set(rows["outcome"]) <= {"reached", "timeout"} and summary.ran == RUNS
-    done = rows[rows["outcome"] == "reached"]
-    assert_same_rows_subset = done.set_index("key")["final_position_mm"]
-    expected = reference[1].set_index("key").loc[assert_same_rows_subset.index, "final_position_mm"]
-    np.testing.assert_allclose(assert_same_rows_subset, expected, rtol=1e-12)
+    assert len(rows) == RUNS and not rows["key"].duplicated().any() and summary.ran == RUNS
+    assert set(rows["outcome"]) == {"reached"}, rows.loc[rows["outcome"] != "reached", "error"].tolist()
+    assert_same_rows(rows, reference[1])
 
 
 @pytest.mark.parametrize("value", [0.0, -1.0, math.nan, math.inf])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import subprocess
 import sys
 import types
 from pathlib import Path
@@ -38,7 +39,10 @@ def run(capsys, *argv):
 
 
 def one_error_line(err):
+    """The one error line; a mistyped (or missing) command or option has the usage before it."""
     lines = [line for line in err.splitlines() if line.strip()]
+    if lines[0].startswith("usage: ibvs-youla"):
+        lines = [line for line in lines[1:] if not line.startswith(" ")]  # wrapped usage lines are indented
     assert len(lines) == 1, err
     assert lines[0].startswith("ibvs-youla: error: ")
     assert "Traceback" not in err
@@ -86,6 +90,18 @@ def test_console_script_is_declared():
         (("view", "--speed", "-2"), ["--speed", "'-2'"]),
         (("frobnicate",), ["'frobnicate'", "'reproduce'"]),
         (("design", "--", "--zeta", "1"), ["design: unrecognized arguments after --: --zeta 1"]),
+        (("simulat",), ["'simulat'; did you mean 'simulate'?"]),
+        (("campaign-reprot", "x"), ["did you mean 'campaign-report'?"]),
+        (("simulate", "--scenaro", "paper-1"), ["--scenaro paper-1; did you mean --scenario?"]),
+        (("simulate", "--duraton=3"), ["did you mean --duration?", "'ibvs-youla simulate --help'"]),
+        (("simulate", "--controller", "ff-fb"), ["'ff-fb'; did you mean 'ff+fb'?"]),
+        (("compare", "--scenario", "paper-1", "--controllers", "pvbs"), ["'pvbs'; did you mean 'pbvs'?"]),
+        (
+            ("campaign", "--cases", "1", "--out", "x", "--controllers", "ibvs-curent"),
+            ["did you mean 'ibvs-current'"],
+        ),
+        (("robustness", "--axis", "noize", "--out", "x"), ["'noize'; did you mean 'noise'?"]),
+        (("simulate", "--zzz"), ["unrecognized arguments: --zzz (see"]),  # nothing near: no suggestion
     ],
 )
 def test_bad_arguments_exit_2_with_one_line(capsys, argv, fragments):
@@ -96,12 +112,33 @@ def test_bad_arguments_exit_2_with_one_line(capsys, argv, fragments):
         assert fragment in line
 
 
-def test_library_errors_exit_1_with_one_line(capsys, tmp_path):
+@pytest.mark.parametrize(
+    ("argv", "usage"),
+    [
+        (("simulate", "--scenaro", "paper-1"), "usage: ibvs-youla simulate [-h]"),
+        (("campaign", "--cases", "1", "--out", "x", "--seeed", "1"), "usage: ibvs-youla campaign [-h]"),
+        (("simulat",), "usage: ibvs-youla [-h]"),
+        ((), "usage: ibvs-youla [-h]"),
+    ],
+)
+def test_a_mistyped_option_or_command_shows_its_usage(capsys, argv, usage):
+    code, out, err = run(capsys, *argv)
+    assert code == 2 and out == "" and err.startswith(usage)
+    if argv:
+        assert "did you mean" in one_error_line(err)
+
+
+def test_a_bad_value_is_one_line_without_the_usage(capsys):
+    code, _, err = run(capsys, "simulate", "--duration", "-1")
+    assert code == 2 and err.startswith("ibvs-youla: error: argument --duration:") and err.count("\n") == 1
+
+
+def test_config_and_library_argument_errors_exit_2_with_one_line(capsys, tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text('[scenario]\npreset = "paper-1"\n[settings]\nzetta = 2.0\n')
     code, _, err = run(capsys, "simulate", "--config", str(bad), "--out", str(tmp_path))
     line = one_error_line(err)
-    assert code == 1
+    assert code == 2
     assert "settings.zetta: received 2.0" in line and "zeta" in line and "omega_n" in line
     # a design the library rejects (Section 6.3: 1/omega_n > tau_in) from a flag: an argument error
     code, _, err = run(capsys, "design", "outer", "--omega-n", "200")
@@ -109,15 +146,20 @@ def test_library_errors_exit_1_with_one_line(capsys, tmp_path):
     assert "argument --omega-n: received 200.0" in one_error_line(err)
 
 
-def test_scenario_outside_the_joint_limits_is_one_line(capsys, tmp_path):
+def test_scenario_outside_the_joint_limits_is_a_config_error(capsys, tmp_path):
     config = tmp_path / "far.toml"
     config.write_text('[scenario]\npreset = "physical-1"\nq_target_deg = [0, 0, 0, 0, 170, 0]\n')
-    code, _, err = run(capsys, "simulate", "--config", str(config), "--out", str(tmp_path))
-    assert code == 1
+    code, _, err = run(capsys, "simulate", "--config", str(config), "--out", str(tmp_path / "out"))
+    assert code == 2
     assert "joint 5" in one_error_line(err)
+    assert not (tmp_path / "out").exists()
 
 
 # ----------------------------------------------------------------------------- simulate
+def refuse_non_finite(constant):
+    raise ValueError(f"not strict JSON: {constant}")
+
+
 def test_simulate_writes_result_figures_and_summary(capsys, tmp_path):
     out = tmp_path / "run"
     code, text, _ = run(
@@ -137,7 +179,8 @@ def test_simulate_writes_result_figures_and_summary(capsys, tmp_path):
             "joint_speeds_torques",
         )
     )
-    summary = json.loads((out / "summary.json").read_text())
+    summary = json.loads((out / "summary.json").read_text(), parse_constant=refuse_non_finite)
+    assert summary["settling_time_s"][0] is None and "never" in summary["null"]  # not settled in 0.05 s
     assert summary["final_feature_error_m"] == pytest.approx(result.final_feature_error.tolist(), abs=0)
     assert summary["outcome"]["kind"] == "converging"
     for label in ("final image error", "final pose error", "2 % settling", "peak joint speed", "outcome"):
@@ -285,7 +328,7 @@ def test_reproduce_takes_settings_from_a_config(capsys, tmp_path, monkeypatch):
         config.write_text(text)
         code, _, err = run(capsys, "reproduce", "--config", str(config))
         line = one_error_line(err)
-        assert code == 1 and line.startswith(f"ibvs-youla: error: {key}: received ")
+        assert code == 2 and line.startswith(f"ibvs-youla: error: {key}: received ")
         assert "reproduce reads only [settings] and [run] duration" in line
 
 
@@ -367,3 +410,42 @@ def test_bench_without_benchmarks_is_one_line(capsys, tmp_path, monkeypatch):
     monkeypatch.setattr(cli_bench, "_benchmarks_dir", lambda: tmp_path / "nowhere")
     code, _, err = run(capsys, "bench", "outer")
     assert code == 1 and "bench_outer_loop.py" in one_error_line(err)
+
+
+# ----------------------------------------------------------------------------- answering at once
+HEAVY = (
+    "numpy",
+    "scipy",
+    "pinocchio",
+    "control",
+    "numba",
+    "cv2",
+    "dask",
+    "distributed",
+    "matplotlib",
+    "pandas",
+    "pyarrow",
+    "qpsolvers",
+    "meshcat",
+    "ibvs_youla.controllers",
+    "ibvs_youla.simulation",
+    "ibvs_youla.config",
+)
+
+
+def test_help_and_argument_errors_import_no_heavy_package():
+    """Parsing is light (lazy imports): what --help and a bad argument load, checked in a fresh process."""
+    code = f"""
+import sys
+from ibvs_youla.cli import main
+calls = [["--help"], ["simulate", "--help"], ["campaign", "--help"], ["robustness", "--help"],
+         ["simulat"], ["simulate", "--scenaro", "paper-1"],
+         ["compare", "--scenario", "paper-1", "--duration", "0"],
+         ["campaign", "--cases", "1", "--out", "x", "--scheduler", "tcp://h:99999"]]
+codes = [main(argv) for argv in calls]
+print(codes, sorted(m for m in {HEAVY!r} if m in sys.modules))
+"""
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True
+    )
+    assert done.stdout.strip().splitlines()[-1] == "[0, 0, 0, 0, 2, 2, 2, 2] []"

@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 
 import ibvs_youla as iy
 from ibvs_youla.analysis import suites
-from ibvs_youla.analysis.compare import compare, time_to_converge
+from ibvs_youla.analysis.compare import CONVERGED_MM, compare, time_to_converge
 from ibvs_youla.analysis.comparison_figures import COMPARISON_FIGURES, plot_comparison
 from ibvs_youla.exceptions import InvalidParameterError, SimulationDivergedError
 from test_cli import one_error_line, run
@@ -210,6 +210,43 @@ def test_time_to_converge_is_inf_for_a_run_that_ends_outside():
     )
 
 
+CONVERGED_M = 1e-3 * CONVERGED_MM  # the end point's tolerance [m]
+
+
+def _general(names, duration):
+    task = suites.task("gans-general")
+    settings = iy.SimulationSettings(joint_rate_hz=25.0, camera_rate_hz=25.0)
+    camera = iy.PinholeCamera.normalized()
+    return compare(
+        task.scenario(), names, plant="free-camera", camera=camera, duration=duration, settings=settings
+    )
+
+
+def test_the_path_ratio_is_given_for_a_converged_run_and_is_then_at_least_one():
+    short, full = _general(["pbvs"], 2.0).row("pbvs"), _general(["pbvs"], 30.0).row("pbvs")
+    assert short.outcome == "not converged" and short.straight_line_m > 0.1
+    assert short.path_length_m < short.straight_line_m  # a ratio below 1: it stopped short, no detour
+    assert short.path_ratio is None
+    assert full.outcome == "converged" and full.path_ratio == pytest.approx(1.0, abs=1e-3)
+    assert full.path_ratio >= 1.0 - CONVERGED_M / full.straight_line_m
+
+
+def test_the_image_panels_share_one_scale_and_say_when_a_path_leaves_it():
+    """The general motion: ibvs-desired sends the points to |x| = 13.8, the others stay within 0.5."""
+    comparison = _general(["ibvs-current", "ibvs-desired", "pbvs"], 30.0)
+    panels = [ax for ax in plot_comparison(comparison)["image_plane"].axes if ax.get_visible()]
+    assert len(panels) == 3
+    limits = {(ax.get_xlim(), ax.get_ylim()) for ax in panels}
+    assert len(limits) == 1  # one scale
+    ((x_lim, y_lim),) = limits
+    assert y_lim[0] > y_lim[1]  # v down
+    assert x_lim[1] - x_lim[0] == pytest.approx(y_lim[0] - y_lim[1])  # a square view
+    assert x_lim[1] < 2.0  # not stretched to the 13.8 of the one that ran off
+    current, desired, pbvs = panels
+    assert not current.texts and not pbvs.texts
+    assert [t.get_text() for t in desired.texts] == ["leaves the panel: up to |x|, |y| = 13.8"]
+
+
 def test_incompatible_and_rejected_controllers_get_a_row_not_a_crash(capsys, tmp_path):
     """fb commands joint positions: no arm on the free camera. On the kinematic arm, MPC-IBVS refuses
     paper-2, whose virtual target features lie outside its image box (ERRATA 13)."""
@@ -294,7 +331,10 @@ def test_a_diverged_run_is_measured_on_its_partial_record(monkeypatch):
         (("--suite", "gans2004"), ["'gans2004'", "'gans2003'"]),
         ((), ["one of the arguments --scenario --suite is required"]),
         (("--scenario", "paper-1", "--suite", "gans2003"), ["not allowed with"]),
-        (("--suite", "gans2003", "--plant", "dynamic"), ["--suite runs on the free camera", "dynamic"]),
+        (
+            ("--suite", "gans2003", "--plant", "dynamic"),
+            ["--suite gans2003 runs on the free camera", "dynamic"],
+        ),
         (("--scenario", "paper-1", "--camera-rate", "0"), ["--camera-rate", "'0'"]),
     ],
 )
@@ -306,12 +346,12 @@ def test_bad_arguments_exit_2_with_one_line(capsys, argv, fragments):
         assert fragment in line
 
 
-def test_a_suite_task_on_an_arm_plant_exits_1_with_one_line(capsys, tmp_path):
+def test_a_suite_task_on_an_arm_plant_exits_2_with_one_line(capsys, tmp_path):
     code, _, err = run(
-        capsys, "compare", "--scenario", "gans-rz-30", "--plant", "dynamic", "--out", str(tmp_path)
+        capsys, "compare", "--scenario", "gans-rz-30", "--plant", "dynamic", "--out", str(tmp_path / "out")
     )
-    assert code == 1
-    assert "plant: received 'dynamic'" in one_error_line(err) and "'free-camera'" in err
+    assert code == 2 and not (tmp_path / "out").exists()
+    assert "--plant: received 'dynamic'" in one_error_line(err) and "free-camera" in err
 
 
 # ----------------------------------------------------------------------------- the suite's outcomes
@@ -346,7 +386,13 @@ def test_rotation_of_pi_pinned_outcomes():
 # retreats 24 m about the optical axis, the QP's active set changes with the last bits, and the time
 # and path move by ~2-4 % (27.1 s, 24.25 m on the Haswell kernel; 27.6 s, 25.17 m on SkylakeX), as
 # docs/controllers.md says under the table. Their outcome must match; their numbers within 5 %.
-KERNEL_SENSITIVE_CELLS = {("gans-rz-180", "mpc-ibvs")}
+# The partitioned law's turns from 120 deg on are set off by round-off (its xy partition is unstable
+# about the pure roll, tests/test_partitioned_ibvs.py): 23.0 s, 1.32 m at 150 deg and 24.6 s,
+# 1.72 m at 180 deg on SkylakeX against 23.0 s, 1.34 m and 24.4 s, 1.71 m on Haswell.
+KERNEL_SENSITIVE_CELLS = {
+    ("gans-rz-180", "mpc-ibvs"),
+    *((f"gans-rz-{angle}", "ibvs-partitioned") for angle in (120, 150, 180)),
+}
 
 
 def _cells(table: str) -> tuple[list[str], dict[str, list[str]]]:
@@ -385,7 +431,17 @@ def test_the_whole_suite_outcomes(capsys, tmp_path):
     table = (tmp_path / "suite.md").read_text().split("\n\n", 1)[1]
     _assert_documented(table, CONTROLLERS_PAGE.read_text(encoding="utf-8"))  # the docs page's table
     outcome = {(t["task"], r["controller"]): r for t in report["tasks"] for r in t["rows"]}
+    # photometric servoing does not apply to four points and the normalized camera: n/a, not run
+    not_run = {key: r for key, r in outcome.items() if r["status"] == "n/a"}
+    assert set(not_run) == {(t.name, "photometric") for t in suites.GANS_2003}
+    assert all(r["reason"] == suites.NOT_APPLICABLE and r["duration_s"] is None for r in not_run.values())
+    assert f"n/a: photometric does not apply ({suites.NOT_APPLICABLE})." in text
+    outcome = {key: r for key, r in outcome.items() if key not in not_run}
     failed = {key: r["outcome"] for key, r in outcome.items() if r["outcome"] != "converged"}
+    # the moment features refuse the face-on square (isotropic moments) on every task
+    assert {key: failed.pop(key) for key in list(failed) if key[1] == "ibvs-moments"} == {
+        (t.name, "ibvs-moments"): "rejected" for t in suites.GANS_2003
+    }
     assert failed == {
         ("gans-rz-150", "ibvs-desired"): "markers_lost",
         ("gans-rz-180", "ibvs-current"): "estimate_failed",
@@ -395,13 +451,54 @@ def test_the_whole_suite_outcomes(capsys, tmp_path):
     for angle in (30, 60, 90, 120, 150, 180):
         for name in ("pbvs", "2.5d"):
             assert outcome[(f"gans-rz-{angle}", name)]["path_length_m"] < 1e-9
-    general = {name: outcome[("gans-general", name)] for name in report["controllers"]}
+    general = {
+        name: outcome[("gans-general", name)] for name in report["controllers"] if name != "photometric"
+    }
     assert general["pbvs"]["path_ratio"] == pytest.approx(1.0, abs=1e-3)
     assert general["ibvs-desired"]["feature_excursion"] == pytest.approx(13.777953, rel=1e-6)
     assert all(
-        r["feature_excursion"] < suites.NOMINAL_HALF_VIEW for n, r in general.items() if n != "ibvs-desired"
+        r["feature_excursion"] < suites.NOMINAL_HALF_VIEW
+        for n, r in general.items()
+        if n not in ("ibvs-desired", "ibvs-moments")  # the moments did not run
     )
     assert (tmp_path / "gans-general" / "table.md").is_file()
+
+
+def test_the_textured_plane_compares_photometric_servoing_with_the_point_laws(capsys, tmp_path):
+    """``--scenario textured-plane``: the free camera at 25 Hz, the 120 x 90 px camera. Photometric
+    servoing converges first (2.28 s, measured) on a path 1.75 times the straight line; classical
+    IBVS on the square's corners at 8.24 s, on the line (lambda = 0.5 against 30)."""
+    out = tmp_path / "textured"
+    argv = ("compare", "--scenario", "textured-plane", "--controllers", "photometric,ibvs-current")
+    code, text, _ = run(capsys, *argv, "--duration", "10", "--out", str(out), "--no-plots")
+    assert code == 0 and "textured-plane on the free-camera plant, 10 s simulated" in text
+    photometric, ibvs = json.loads((out / "table.json").read_text())["rows"]
+    assert photometric["outcome"] == ibvs["outcome"] == "converged"
+    assert photometric["time_to_converge_s"] == pytest.approx(2.28, abs=1e-9)
+    assert ibvs["time_to_converge_s"] == pytest.approx(8.24, abs=1e-9)
+    assert photometric["path_ratio"] == pytest.approx(1.745, abs=0.001) and ibvs["path_ratio"] < 1.0 + 1e-9
+    assert not photometric["markers_left_view"]
+    assert photometric["feature_excursion"] == pytest.approx(0.558, abs=1e-3)
+    # on a scenario without a scene it is refused by name, a row and not a crash
+    rows = compare(
+        suites.task("gans-rz-30").scenario(),
+        ["photometric", "pbvs"],
+        plant="free-camera",
+        camera=iy.PinholeCamera.normalized(),
+        duration=0.2,
+        settings=suites.suite_settings(),
+    ).rows
+    assert (rows[0].status, rows[1].status) == ("rejected", "complete")
+    assert "a scenario with a scene for 'photometric'" in rows[0].reason
+
+
+def test_the_suite_gives_photometric_servoing_an_na_column_with_the_reason():
+    report = suites.run_suite(["pbvs", "photometric"], [suites.task("gans-rz-30")], duration=0.2)
+    row = report.comparison("gans-rz-30").row("photometric")
+    assert (row.status, row.ran, row.reason) == ("n/a", False, suites.NOT_APPLICABLE)
+    assert report.table_markdown().splitlines()[2].endswith(" | n/a |")
+    alone = suites.run_suite(["photometric"], [suites.task("gans-rz-30")], duration=0.2)
+    assert [r.status for r in alone.comparisons[0].rows] == ["n/a"]
 
 
 def test_compare_has_help_and_is_listed(capsys):

@@ -47,6 +47,7 @@ from ibvs_youla.model.dynamics_kernels import ChainDynamics, aba_compiled
 from ibvs_youla.model.ik import nearest_branch
 from ibvs_youla.model.ik_kernels import ik_parameter_array, nearest_branch_compiled
 from ibvs_youla.simulation.integrators import ArmRk4, rk4_arm_step
+from ibvs_youla.simulation.progress import COMPILE_MESSAGE
 
 SEED = 20261201
 EPS = np.finfo(float).eps
@@ -324,7 +325,9 @@ RUN = textwrap.dedent(
     from ibvs_youla import scenarios
     from ibvs_youla.model.camera_kernels import measure_features
     from ibvs_youla._jit import jit_available
-    r = iy.simulate(scenarios.paper(2), "ff+fb", duration=0.03, settings=iy.SimulationSettings.paper())
+    r = iy.simulate(
+        scenarios.paper(2), "ff+fb", duration=0.03, settings=iy.SimulationSettings.paper(), progress=True
+    )
     stats = getattr(measure_features, "stats", None)
     print(json.dumps({
         "jit": jit_available(),
@@ -348,11 +351,13 @@ def run_child(env_changes, cwd=None):
 @pytest.mark.slow
 def test_the_compiled_run_equals_the_interpreted_run_and_the_cache_is_read_back(tmp_path):
     """One short paper run three ways: compiled into an empty cache, compiled from that cache, and with
-    Numba's JIT off (the kernels as plain Python, the f2py SVD): the same signals to 1e-12."""
+    Numba's JIT off (the kernels as plain Python, the f2py SVD): the same signals to 1e-12. With a
+    progress bar, the first says in one line that it compiles; the cached and the plain runs do not."""
     cache = tmp_path / "numba-cache"
-    first, _ = run_child({"NUMBA_CACHE_DIR": str(cache)})
-    second, _ = run_child({"NUMBA_CACHE_DIR": str(cache)})
-    plain, _ = run_child({"NUMBA_DISABLE_JIT": "1"})
+    first, first_err = run_child({"NUMBA_CACHE_DIR": str(cache)})
+    second, second_err = run_child({"NUMBA_CACHE_DIR": str(cache)})
+    plain, plain_err = run_child({"NUMBA_DISABLE_JIT": "1"})
+    assert [err.count(COMPILE_MESSAGE) for err in (first_err, second_err, plain_err)] == [1, 0, 0]
     assert first["jit"] and second["jit"] and not plain["jit"]
     assert any(cache.rglob("*.nbi"))  # the index files of the cache
     assert first["cache_misses"] >= 1

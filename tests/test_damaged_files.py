@@ -1,7 +1,9 @@
 """Every reader turns a damaged or foreign file into DamagedFileError naming the file and what is wrong.
 
 The table: each kind of damage (empty, truncated, random bytes, a flipped byte, a directory,
-a header that is not JSON or lacks a key, another format version, missing parts) x each
+a header that is not JSON or lacks a key, another format version, missing parts, and whole files
+holding what no run records: NaN or non-rigid poses, time running backwards, strings for
+booleans, an unknown status or outcome) x each
 reader of that kind of file: ``SimulationResult.load`` and ``ibvs-youla view`` for results,
 ``campaign.storage.read_definition`` and ``ibvs-youla campaign`` for ``campaign.json``,
 ``campaign.storage.read_rows`` and ``ibvs-youla campaign-report`` for Parquet parts. Each case
@@ -136,6 +138,34 @@ def _v1_without_tau(path: Path) -> None:
     _npz_with(path, header, arrays)
 
 
+def _changed(change):
+    """A damage that rewrites the arrays and header of a whole result with ``change(arrays, header)``."""
+
+    def damage(path: Path) -> None:
+        with np.load(path) as data:
+            arrays = {k: data[k] for k in data.files if k != "__metadata__"}
+            header = json.loads(str(data["__metadata__"]))
+        change(arrays, header)
+        _npz_with(path, json.dumps(header), arrays)
+
+    return damage
+
+
+def _set(name, index, value):
+    def change(arrays, header):
+        arrays[name][index] = value
+
+    return change
+
+
+def _visible_as_text(arrays, header):
+    arrays["visible"] = arrays["visible"].astype(str)
+
+
+def _unknown_status(arrays, header):
+    header["metadata"]["status"] = "finished"
+
+
 RESULT_DAMAGE = {
     "empty": (_empty, "empty (0 bytes)"),
     "truncated": (_truncate, "not a whole zip archive"),
@@ -149,6 +179,15 @@ RESULT_DAMAGE = {
     "missing arrays": (_missing_arrays, "missing the arrays ['camera_pose']"),
     "arrays do not fit": (_arrays_do_not_fit, "its arrays do not form a result"),
     "format 1 missing a signal": (_v1_without_tau, "missing the arrays ['tau'] (format 1)"),
+    # whole archives holding what no run records
+    "NaN pose": (_changed(_set("camera_pose", (7, 0, 3), np.nan)), "field 'camera_pose': sample 7"),
+    "non-rigid pose": (
+        _changed(_set("camera_pose", (7, 0, 0), 2.0)),
+        "field 'camera_pose': sample 7 (t = 0.007 s) is not a rigid transform",
+    ),
+    "time running backwards": (_changed(_set("t", 50, 0.0)), "field 't' runs backwards: sample 50"),
+    "strings in visible": (_changed(_visible_as_text), "field 'visible' holds <U5 values, not booleans"),
+    "unknown status": (_changed(_unknown_status), "field 'metadata.status' is 'finished'"),
 }
 
 
@@ -244,7 +283,8 @@ def test_the_campaign_command_answers_a_damaged_definition_with_one_line(capsys,
 
 # ----------------------------------------------------------------------------- Parquet parts
 def _row(key: str) -> dict:
-    return {name: (0.25 if kind is float else 3 if kind is int else key) for name, kind in COLUMNS.items()}
+    row = {name: (0.25 if kind is float else 3 if kind is int else key) for name, kind in COLUMNS.items()}
+    return {**row, "outcome": "reached", "status": "complete"}
 
 
 def _foreign_parquet(path: Path) -> None:
@@ -260,6 +300,20 @@ def _directory_of_parts(path: Path) -> None:
     (path / "inner.txt").write_text("not a part")
 
 
+def _rows_with(column, value):
+    """A damage that rewrites a whole part with ``value`` in ``column`` of its first row."""
+
+    def damage(path: Path) -> None:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        rows = pq.read_table(path).to_pylist()
+        rows[0][column] = value
+        pq.write_table(pa.Table.from_pylist(rows, schema=storage.arrow_schema()), path)
+
+    return damage
+
+
 PART_DAMAGE = {
     "empty": (_empty, "not readable as rows"),
     "truncated": (_truncate, "not readable as rows"),
@@ -267,6 +321,8 @@ PART_DAMAGE = {
     "flipped byte": (_flip_page, "CRC"),
     "directory": (_directory_of_parts, "not readable as rows"),
     "another schema": (_foreign_parquet, "not rows of a campaign: no column family, "),
+    "unknown outcome": (_rows_with("outcome", "won"), "column 'outcome' holds ['won']"),
+    "unknown status": (_rows_with("status", "finished"), "column 'status' holds ['finished']"),
 }
 
 

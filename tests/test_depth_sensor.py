@@ -115,6 +115,22 @@ def test_current_depth_laws_use_measured_depths_not_their_model(name):
     assert np.abs(controller.interaction_matrix(frame.features) - by_depth).max() > 1e-2  # PnP: the belief
 
 
+@pytest.mark.parametrize("name", ["ibvs-polar", "ibvs-partitioned"])
+def test_the_other_point_laws_use_measured_depths_too(name):
+    """Polar and partitioned IBVS take L's depths from the frame when it carries them: depths 5 %
+    long give another twist, and a frame without depths gives the one of the controller's model."""
+    T = T_O_C([0.05, 0.02, 0.9], [5, -8, 30])
+    frame = MarkerSensor(CAMERA, SQUARE_O).with_depth().measure(T, 0.0)
+    controller = make(name)
+    controller.reset(task_with())
+    controller.update(frame, None)
+    by_depth = controller.command(None).copy()
+    controller.update(frame._replace(depth=frame.depth * 1.05), None)
+    assert np.abs(controller.command(None) - by_depth).max() > 1e-4
+    controller.update(frame._replace(depth=None), None)  # PnP on the true markers: the true depths
+    np.testing.assert_allclose(controller.command(None), by_depth, rtol=0, atol=1e-9)
+
+
 def test_ibvs_current_with_measured_depths_is_the_law_at_the_true_depths():
     T = T_O_C([0.05, 0.02, 0.9], [5, -8, 30])
     controller = make("ibvs-current")
@@ -187,3 +203,16 @@ def test_a_dropped_marker_has_no_depth_either():
     missing = ~frame.visible
     assert missing.any()
     assert np.isnan(frame.depth[missing]).all() and np.isfinite(frame.depth[~missing]).all()
+
+
+def test_a_controller_is_given_the_depths_the_sensor_measured():
+    """The plug-in loop hands each controller its own copy of the frame, depths included (not None)."""
+    from servo_helpers import ConstantTwist
+
+    recorder = ConstantTwist((0.02, 0.0, 0.0, 0.0, 0.0, 0.1))
+    result = iy.simulate(
+        SCENARIO, recorder, plant="free-camera", camera=CAMERA, duration=0.2, settings=SETTINGS, sensor="depth"
+    )
+    assert len(recorder.frames) == len(result) == 6
+    for frame, T in zip(recorder.frames, result.camera_pose, strict=True):
+        np.testing.assert_allclose(frame.depth, P_C_of(T)[:, 2], rtol=0, atol=1e-15)

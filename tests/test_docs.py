@@ -98,13 +98,28 @@ def test_docs_page_python_snippets_run(page, tmp_path, monkeypatch):
             "2.5d",
             "hybrid",
             "mpc-ibvs",
+            "ibvs-polar",
+            "ibvs-partitioned",
         ]
         for method, status, errors in baselines:
             mm, deg = (float(v) for v in errors.strip("()").split(","))
-            assert status == "complete" and mm < 3e-3 and deg < 1e-3, method
+            slower = method in ("ibvs-polar", "ibvs-partitioned")  # 6.4e-3 and 5.1e-3 mm measured
+            assert status == "complete" and mm < (1e-2 if slower else 3e-3) and deg < 1e-3, method
     if name == "own-robot.md":
         status = next(line for line in lines if line.startswith("ur5:"))
         assert status.startswith("ur5: complete")
+        listed = {line.split()[0]: line.split()[1:3] for line in lines[:8]}
+        assert listed["ur5"] == ["n=6", "ik=ur"] and listed["panda"] == ["n=7", "ik=numerical"]
+        assert listed["irb4600"] == ["n=6", "ik=spherical-wrist"]
+        assert "numerical True" in lines  # the Kinova's warm start recovers q
+        assert any(line.startswith("unreachable:") for line in lines)
+        assert "complete joint_limit_avoidance" in lines
+    if name == "redundancy.md":
+        shape, ratio = lines[0].split(" sigma_7 / sigma_1 = ")
+        assert shape == "J: (9, 7)" and float(ratio) < 1e-12  # one zero singular value
+        seen = float(lines[1].split()[1])
+        unseen, null_part = float(lines[2].split()[1]), float(lines[2].split("= ")[1].split()[0])
+        assert seen < 1e-4 and abs(unseen - null_part) < 0.1 * null_part  # the self-motion part is unseen
 
 
 def test_the_docs_pages_that_promise_snippets_have_them():

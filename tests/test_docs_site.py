@@ -52,6 +52,7 @@ def test_every_page_and_notebook_is_in_the_nav():
     assert all((ROOT / "docs" / p).is_file() for p in nav)
 
 
+@pytest.mark.slow  # the whole site: the API reference and the six notebooks rendered
 def test_mkdocs_build_strict_passes(tmp_path):
     """The build .ci/run runs: a broken link, a page outside the nav or a docstring reference that
     does not resolve is a warning, and --strict makes it fail. Measured about 15 s on a quiet core."""

@@ -19,7 +19,17 @@ SRC = Path(__file__).resolve().parents[1] / "src" / ROOT
 
 # Low -> high. A module may import its own layer and the layers before it.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("_validation", "_memory", "_jit", "_linalg", "_geometry", "exceptions", "files"),
+    (
+        "_validation",
+        "_memory",
+        "_jit",
+        "_linalg",
+        "_geometry",
+        "_reproducible",
+        "exceptions",
+        "files",
+        "catalog",
+    ),
     ("model",),
     ("estimation",),
     ("control",),

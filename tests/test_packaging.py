@@ -40,5 +40,5 @@ def test_urdf_resources_are_importable():
 def test_lazy_api_names_match_all():
     import ibvs_youla
 
-    lazy = set(ibvs_youla._LAZY) | ibvs_youla._SUBMODULES
+    lazy = set(ibvs_youla._LAZY) | ibvs_youla._SUBMODULES | set(ibvs_youla._ALIASES)
     assert lazy | {"IbvsYoulaError", "__version__", "exceptions"} == set(ibvs_youla.__all__)

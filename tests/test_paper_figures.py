@@ -30,6 +30,15 @@ def test_panels_show_the_recorded_signals_and_dashed_targets():
     np.testing.assert_allclose(axes[0].lines[1].get_ydata(), 1.0)
     fig_q = plot_joint_comparison(_result(smooth, q), _result(smooth, q), "test")
     np.testing.assert_allclose(fig_q.axes[0].lines[1].get_ydata(), np.degrees(0.1))
+    # the dashed line has an entry in the figure's legend; no legend covers a panel
+    for figure, labels in (
+        (fig, ["run (colour: the marker)", "target features"]),
+        (fig_q, ["run", "target: q_target - d (ERRATA 14)"]),
+    ):
+        (legend,) = figure.legends
+        assert [t.get_text() for t in legend.get_texts()] == labels
+        assert legend.get_lines()[1].get_linestyle() == "--"
+        assert all(ax.get_legend() is None for ax in figure.axes)
     plt.close("all")
 
 
@@ -42,8 +51,10 @@ def test_an_early_spike_is_zoomed_past_and_stated():
     q = np.zeros((n, 6))
     fig = plot_image_comparison(_result(smooth, q), _result(spiky, q), "test")
     left, right = fig.axes[0], fig.axes[1]
-    assert not left.texts  # nothing to zoom past
+    assert left.get_title(loc="right") == ""  # nothing to zoom past
     _low, high = right.get_ylim()
     assert high < 2.0  # [mm]: scaled to the late signal, not to the 200 mm spike
-    assert "full range" in right.texts[0].get_text() and "200" in right.texts[0].get_text()
+    note = right.get_title(loc="right")  # above the panel: no line of the plot crosses it
+    assert "full range" in note and "200" in note
+    assert [t.get_text() for t in right.texts] == ["feedforward + feedback"]  # the column's name only
     plt.close("all")

@@ -132,24 +132,29 @@ def test_default_arm_limits_are_the_irb4600s(result):
     np.testing.assert_allclose(fig.axes[7].lines[1].get_ydata(), limits.tau_max[3], rtol=1e-15, atol=0)
 
 
-def test_plot_result_and_save(result, arm, tmp_path):
+def test_plot_result_draws_every_figure_without_pyplot(result, arm):
     import matplotlib.pyplot as plt
 
     before = plt.get_fignums()
     figures = plots.plot_result(result, arm)
     assert tuple(figures) == plots.RESULT_FIGURES
-    paths = plots.save_result_figures(result, tmp_path / "figs", arm)
-    assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == sorted(f"{n}.png" for n in figures)
-    assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in paths.values())
     assert plt.get_fignums() == before  # no pyplot state: nothing to close, no backend switched
 
 
-def test_plots_of_a_real_run(tmp_path):
+def test_the_figures_of_a_real_run_are_saved_as_png(tmp_path):
+    """One save (the slow part: drawing five figures) of a real run's figures."""
+    import matplotlib.pyplot as plt
+
     import ibvs_youla as iy
 
     run = iy.simulate(iy.scenarios.physical(1), duration=0.02)
-    paths = plots.save_result_figures(run, tmp_path)
-    assert len(paths) == 5 and all(p.stat().st_size > 10_000 for p in paths.values())
+    before = plt.get_fignums()
+    paths = plots.save_result_figures(run, tmp_path / "figs")
+    assert tuple(paths) == plots.RESULT_FIGURES
+    assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == sorted(f"{n}.png" for n in paths)
+    assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in paths.values())
+    assert all(p.stat().st_size > 10_000 for p in paths.values())
+    assert plt.get_fignums() == before
     title = plots.plot_joint_angles(run).get_suptitle()
     assert title == "physical-1, ff+fb (adaptive outer loop): joint angles"
 

@@ -215,3 +215,55 @@ def test_software_versions_are_json_strings():
     versions = software_versions()
     assert set(versions) == {"python", "ibvs-youla", "numpy", "scipy", "pin", "control"}
     assert versions["numpy"] == np.__version__
+
+
+@pytest.mark.parametrize(
+    ("where", "problem"),
+    [
+        ("missing/run.npz", "its folder {tmp}/missing does not exist"),
+        ("a-file/run.npz", "its folder {tmp}/a-file is not a folder"),
+        ("a-folder", "this is a folder"),
+    ],
+)
+def test_a_file_that_cannot_be_written_where_asked_is_named_with_its_folder(tmp_path, where, problem):
+    """save() into a missing folder raised a bare FileNotFoundError naming the hidden temporary file."""
+    from ibvs_youla.files import write_text
+
+    (tmp_path / "a-file").write_text("x")
+    (tmp_path / "a-folder.npz").mkdir()
+    (tmp_path / "a-folder").mkdir()
+    result = SimulationResult(
+        t=[0.0], camera_pose=[np.eye(4)], camera_pose_target=np.eye(4), features=np.zeros((1, 2)),
+        feature_target=np.zeros(2), visible=np.ones((1, 1), bool),
+    )  # fmt: skip
+    for write in (lambda p: result.save(p), lambda p: write_text(p, "text")):
+        target = tmp_path / where
+        with pytest.raises(InvalidParameterError) as info:
+            write(target)
+        message = str(info.value)
+        assert message.startswith("path: received ") and problem.format(tmp=tmp_path) in message
+        assert ".tmp" not in message and not list(tmp_path.rglob(".*.tmp"))
+
+
+def test_a_run_without_samples_says_how_it_ended():
+    """A first frame that loses the markers: asking for the final error named no cause."""
+    import ibvs_youla as iy
+    from ibvs_youla.model.camera import PinholeCamera
+
+    markers = [
+        [-0.1, -0.1, 1.0],
+        [0.1, -0.1, 1.0],
+        [0.1, 0.1, 1.2],
+        [-0.1, 0.1, 1.1],
+    ]  # [m] before the target
+    turned = np.diag([-1.0, 1.0, -1.0, 1.0])  # the start camera faces away: every marker behind it
+    scenario = iy.Scenario.free_camera(turned, np.eye(4), markers)
+    result = iy.simulate(
+        scenario, "ibvs-current", duration=0.1, plant="free-camera", camera=PinholeCamera.normalized()
+    )
+    assert result.status == "markers_lost" and len(result) == 0
+    with pytest.raises(
+        InvalidArrayError, match=r"the run ended with status 'markers_lost' before its first"
+    ) as e:
+        result.final_pose_error()
+    assert "the true camera lost a marker" in str(e.value)

@@ -179,6 +179,7 @@ def test_a_folder_holding_something_else_is_refused_untouched(study_dir, tmp_pat
     assert sorted(p.name for p in cluttered.iterdir()) == ["notes.txt"]
 
 
+@pytest.mark.slow  # a Dask local cluster started and stopped
 def test_a_study_runs_on_one_local_cluster(tmp_path):
     study = RobustnessStudy("latency", (0, 3), {**FREE, "cases": 1, "duration": 5.0})
     summaries = run_study(study, tmp_path / "latency", workers=1, progress=False)

@@ -103,8 +103,12 @@ def test_physical_markers_stay_in_view_along_the_joint_space_path(
 
 def test_validation_errors_say_what_was_received():
     q, m = np.zeros(6), scenarios.PAPER_MARKERS_O
-    with pytest.raises(InvalidArrayError, match=r"q_start: received an array of shape \(5,\)"):
+    with pytest.raises(InvalidArrayError, match=r"q_start: received 5 joint\(s\); expected n >= 6 joints"):
         Scenario(np.zeros(5), q, m)
+    with pytest.raises(
+        InvalidArrayError, match=r"q_target: received an array of shape \(6,\); expected shape \(7,\)"
+    ):
+        Scenario(np.zeros(7), q, m)
     with pytest.raises(InvalidArrayError, match="q_target: received non-finite"):
         Scenario(q, np.full(6, np.nan), m)
     with pytest.raises(InvalidArrayError, match="markers_O"):

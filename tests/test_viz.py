@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import socket
@@ -231,6 +232,54 @@ def test_viewer_prints_its_url_and_close_stops_its_server(capsys):
     assert re.fullmatch(r"http://127\.0\.0\.1:\d+/static/", view.url)
     view.close()
     assert server.poll() is not None  # the server process has exited
+
+
+def test_view_stopped_by_sigterm_stops_its_meshcat_server(tmp_path):
+    """``ibvs-youla view`` killed by SIGTERM (kill, a batch system) took its meshcat server with it only
+    on Ctrl-C: the server, in a session of its own, outlived it. Now the server goes with the view."""
+    import signal
+
+    import psutil
+
+    sc = scenarios.physical(1)
+    pose = Arm.irb4600().camera_pose(sc.q_start)
+    run = {
+        "q_start": sc.q_start.tolist(),
+        "q_target": sc.q_target.tolist(),
+        "markers_O": sc.markers_O.tolist(),
+    }
+    path = SimulationResult(  # a saved arm run of two samples at rest: all view needs to serve it
+        t=[0.0, 0.01],
+        camera_pose=[pose, pose],
+        camera_pose_target=pose,
+        features=np.zeros((2, 9)),
+        feature_target=np.zeros(9),
+        visible=np.ones((2, 3), bool),
+        signals={"q_true": [sc.q_start, sc.q_start]},
+        metadata={**run, "joint_offset": [0.0] * 6, "scenario": "at-rest", "virtual_points": False},
+    ).save(tmp_path / "run.npz")
+    code = "import sys; from ibvs_youla.cli import main; sys.exit(main(sys.argv[1:]))"
+    view = subprocess.Popen(
+        [sys.executable, "-c", code, "view", "--result", str(path), "--speed", "100"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    servers = []
+    try:
+        for line in view.stdout:  # the viewer is up and serving
+            if line.startswith("serving"):
+                break
+        servers = [p for p in psutil.Process(view.pid).children() if "meshcat" in " ".join(p.cmdline())]
+        assert len(servers) == 1, "the view started no meshcat server of its own"
+        view.send_signal(signal.SIGTERM)
+        assert view.wait(timeout=30) == 128 + signal.SIGTERM
+        _, alive = psutil.wait_procs(servers, timeout=10)
+        assert not alive, "the meshcat server outlived the view"
+    finally:
+        for proc in [view, *servers]:  # by id, whatever happened
+            with contextlib.suppress(Exception):
+                proc.kill()
 
 
 def test_page_and_three_js_are_served_locally(viewer):

@@ -28,6 +28,7 @@ _LAZY: dict[str, str] = {
     "StereoCamera": ".model.camera",
     "PinholeCamera": ".model.camera",
     "Visibility": ".model.camera",
+    "TexturedPlane": ".model.textured_plane",
     # estimation
     "EyeInHand": ".estimation.eye_in_hand",
     "rigid_transform_from_points": ".estimation.stereo_pose",
@@ -52,6 +53,7 @@ _LAZY: dict[str, str] = {
     "ImagingSettings": ".simulation.rendering",
 }
 _SUBMODULES = {"scenarios", "model", "estimation", "control", "controllers", "simulation", "analysis"}
+_ALIASES = {"robots": ".model.robots"}  # iy.robots: robots by name
 
 __all__ = [
     "Arm",
@@ -73,6 +75,7 @@ __all__ = [
     "SimulationSettings",
     "SingularValuePolicy",
     "StereoCamera",
+    "TexturedPlane",
     "Visibility",
     "__version__",
     "analysis",
@@ -83,6 +86,7 @@ __all__ = [
     "exceptions",
     "model",
     "rigid_transform_from_points",
+    "robots",
     "scenarios",
     "simulate",
     "simulate_batch",
@@ -95,8 +99,8 @@ def __getattr__(name: str) -> Any:
         value = getattr(importlib.import_module(_LAZY[name], __name__), name)
         globals()[name] = value
         return value
-    if name in _SUBMODULES:
-        module = importlib.import_module(f".{name}", __name__)
+    if name in _SUBMODULES or name in _ALIASES:
+        module = importlib.import_module(_ALIASES.get(name, f".{name}"), __name__)
         globals()[name] = module
         return module
     raise AttributeError(f"module 'ibvs_youla' has no attribute {name!r}")
@@ -116,8 +120,10 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .estimation.hand_eye import calibrate_hand_eye
     from .estimation.marker_detection import DetectorSettings
     from .estimation.stereo_pose import rigid_transform_from_points
+    from .model import robots
     from .model.arm import Arm
     from .model.camera import PinholeCamera, StereoCamera, Visibility
+    from .model.textured_plane import TexturedPlane
     from .scenarios import Scenario
     from .simulation.batch import BatchResult, simulate_batch
     from .simulation.disturbances.definition import Disturbances

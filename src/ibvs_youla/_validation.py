@@ -316,3 +316,49 @@ def one_of(value: Any, name: str, choices: Sequence[str]) -> str:
     if not isinstance(value, str) or value not in choices:
         raise InvalidParameterError(name, value, " or ".join(repr(c) for c in choices))
     return str(value)
+
+
+def keywords_checked(cls: Any) -> Any:
+    """Class decorator: arguments its ``__init__`` cannot bind raise InvalidParameterError, not TypeError.
+
+    A dataclass's generated ``__init__`` answers an unknown keyword (``Disturbances(foo=1)``), a
+    missing required one or one too many positional arguments with a bare ``TypeError``; the
+    decorated class names itself, what was wrong and its valid keywords. The binding is checked
+    only when ``__init__`` raised TypeError (a correct call costs nothing), and a TypeError from
+    inside a valid call (its ``__post_init__``) passes through as it was.
+    """
+    import functools
+    import inspect
+
+    init = cls.__init__
+    signature = inspect.signature(init)
+    params = list(signature.parameters.values())[1:]
+    valid = ", ".join(p.name for p in params)
+    required = [p.name for p in params if p.default is inspect.Parameter.empty]
+
+    @functools.wraps(init)
+    def checked(self: Any, *args: Any, **kwargs: Any) -> None:
+        try:
+            init(self, *args, **kwargs)
+        except TypeError:
+            try:
+                signature.bind(self, *args, **kwargs)
+            except TypeError:
+                names = {p.name for p in params}
+                unknown = sorted(set(kwargs) - names)
+                given = {p.name for p in params[: len(args)]} | set(kwargs)
+                missing = [name for name in required if name not in given]
+                if unknown:
+                    received = f"unknown keywords {unknown}"
+                elif missing:
+                    received = f"no {', '.join(missing)}"
+                else:
+                    received = f"{len(args)} positional arguments"
+                needed = ", ".join(required) or "none"
+                raise InvalidParameterError(
+                    cls.__name__, received, f"keywords among {valid} (required: {needed})"
+                ) from None
+            raise
+
+    cls.__init__ = checked
+    return cls

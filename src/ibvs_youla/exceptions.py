@@ -19,11 +19,13 @@ __all__ = [
     "ControllerError",
     "DamagedFileError",
     "DegenerateMarkersError",
+    "FeatureSingularityError",
     "FolderLockedError",
     "IbvsYoulaError",
     "IncompatibleCommandError",
     "InvalidArrayError",
     "InvalidCommandError",
+    "InvalidControllerOutputError",
     "InvalidDisparityError",
     "InvalidParameterError",
     "JointLimitError",
@@ -219,6 +221,24 @@ class DegenerateMarkersError(IbvsYoulaError, ValueError):
         super().__init__(message)
 
 
+class FeatureSingularityError(IbvsYoulaError):
+    """An image feature has no value, or no derivative, at the image at hand.
+
+    E.g. the polar angle of a point at the principal point, or the orientation of a point set
+    whose second-order moments are isotropic. The servo loop ends such a run with the status
+    ``"estimate_failed"`` (the controller's model failed on a valid image).
+
+    Attributes:
+        feature: The feature's name, e.g. ``"phi"``.
+        value: What made it singular (e.g. the radius, a moment ratio).
+    """
+
+    def __init__(self, feature: str, value: Any, message: str) -> None:
+        self.feature = feature
+        self.value = value
+        super().__init__(message)
+
+
 class CalibrationError(IbvsYoulaError):
     """Hand-eye calibration data cannot determine the transform (too few or degenerate motions)."""
 
@@ -271,18 +291,29 @@ class ControllerError(IbvsYoulaError):
         Exception.__init__(self, f"{controller}.{method}() at t = {time:.6g} s: {message}")
 
 
-class InvalidCommandError(ControllerError, InvalidParameterError):
+class InvalidControllerOutputError(ControllerError, InvalidParameterError):
+    """A controller's method returned what the servo loop cannot use: a command, signals or a spec.
+
+    Attributes are those of :class:`ControllerError`, plus ``name`` (``"<controller>.<method>()"``),
+    ``value`` (what was received) and ``valid`` of :class:`InvalidParameterError`, so code catching
+    that keeps working.
+    """
+
+    def __init__(self, controller: str, method: str, time: float, value: Any, valid: str) -> None:
+        self.name, self.value, self.valid = f"{controller}.{method}()", value, valid
+        ControllerError.__init__(
+            self, controller, method, time, f"received {value}; valid values are {valid}"
+        )
+
+
+class InvalidCommandError(InvalidControllerOutputError):
     """A controller's command is not an array of its command type's shape (or, first, not finite).
 
-    Attributes are those of :class:`ControllerError`, plus ``name``, ``value`` (what was received)
-    and ``valid`` of :class:`InvalidParameterError`, so code catching that keeps working.
+    Attributes are those of :class:`InvalidControllerOutputError`, with ``method`` ``"command"``.
     """
 
     def __init__(self, controller: str, time: float, value: Any, valid: str) -> None:
-        self.name, self.value, self.valid = f"{controller}.command()", value, valid
-        ControllerError.__init__(
-            self, controller, "command", time, f"received {value}; valid values are {valid}"
-        )
+        super().__init__(controller, "command", time, value, valid)
 
 
 class PoseEstimationError(IbvsYoulaError):

@@ -24,6 +24,8 @@ file and before it is renamed, so that a test can kill a writer in the middle of
 from __future__ import annotations
 
 import contextlib
+import json
+import math
 import os
 import re
 import time
@@ -42,6 +44,8 @@ __all__ = [
     "is_temporary",
     "remove_temporaries",
     "save_figure",
+    "strict_json",
+    "write_json",
     "write_text",
 ]
 
@@ -65,13 +69,33 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "wb") -> Iterator[IO[
 
     Yields:
         The open temporary file. If the block raises, it is deleted and ``path`` is untouched.
+
+    Raises:
+        InvalidParameterError: ``path`` is a folder, or its folder does not exist or cannot be
+            written (the message names ``path`` and its folder, not the temporary file).
     """
     if mode not in ("wb", "w"):
         raise InvalidParameterError("mode", mode, "'wb' or 'w'")
     path = Path(path)
+    if path.is_dir():
+        raise InvalidParameterError("path", str(path), "a file to write (this is a folder)")
     tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex}.tmp")
     try:
-        with open(tmp, mode, **({} if mode == "wb" else {"encoding": "utf-8"})) as stream:
+        opened = open(tmp, mode, **({} if mode == "wb" else {"encoding": "utf-8"}))
+    except OSError as err:  # named by the file asked for, not by the hidden temporary one
+        folder = path.parent
+        why = (
+            f"its folder {folder} does not exist"
+            if not folder.exists()
+            else f"its folder {folder} is not a folder"
+            if not folder.is_dir()
+            else f"its folder {folder} cannot be written ({err.strerror})"
+        )
+        raise InvalidParameterError(
+            "path", str(path), f"a file in a folder that exists and can be written: {why}"
+        ) from None
+    try:
+        with opened as stream:
             yield stream
             _pause_for_tests()
             stream.flush()
@@ -89,6 +113,28 @@ def write_text(path: str | os.PathLike[str], text: str) -> Path:
     with atomic_write(path, "w") as stream:
         stream.write(text)
     return Path(path)
+
+
+def strict_json(value: Any) -> Any:
+    """``value`` with every float that is not finite replaced by None, for strict JSON (RFC 8259).
+
+    Python's ``json`` writes ``Infinity`` and ``NaN``, which strict parsers (JavaScript's
+    ``JSON.parse``, jq) reject. Every JSON file the library writes says what its ``null`` means
+    (typically "never": a time that never came, such as a settling time).
+    """
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: strict_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [strict_json(v) for v in value]
+    return value
+
+
+def write_json(path: str | os.PathLike[str], value: Any, **dumps_kwargs: Any) -> Path:
+    """Write ``value`` as strict JSON (:func:`strict_json`, indented) atomically; return the path."""
+    text = json.dumps(strict_json(value), allow_nan=False, **{"indent": 1, **dumps_kwargs})
+    return write_text(path, text)
 
 
 def save_figure(fig: Any, path: str | os.PathLike[str], **savefig_kwargs: Any) -> Path:

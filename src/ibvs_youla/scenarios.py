@@ -46,18 +46,25 @@ import numpy as np
 from ._reproducible import matmul
 from ._validation import as_array, as_pose, one_of
 from .estimation.stereo_pose import check_marker_geometry
-from .exceptions import InvalidParameterError, JointLimitError
+from .exceptions import InvalidArrayError, InvalidParameterError, JointLimitError
 
 __all__ = [
+    "FOR_ARM_DEPTHS",
+    "FOR_ARM_MIN_SIGMA",
     "NAMES",
     "PAPER_MARKERS_O",
+    "TEXTURED_DEPTH_M",
+    "TEXTURED_START",
     "Scenario",
+    "for_arm",
     "get",
     "paper",
     "paper_scenarios",
     "physical",
     "physical_scenarios",
     "place_markers",
+    "textured_camera",
+    "textured_plane",
 ]
 
 # Table 1, joint angles [deg]
@@ -93,23 +100,29 @@ class Scenario:
     also run on the free-flying camera: its poses are then the arm's forward kinematics.
 
     Attributes:
-        q_start: Initial encoder joint angles (6,) [rad], or ``None`` without an arm.
-        q_target: True joint angles of the target camera pose (6,) [rad], or ``None``.
+        q_start: Initial encoder joint angles (n,) [rad] (prismatic joints [m]), n >= 6 the
+            arm's joints, or ``None`` without an arm.
+        q_target: True joint angles of the target camera pose (n,) [rad], or ``None``.
         markers_O: Marker positions in the base frame, one per row (n, 3), n >= 3 [m]
             (the paper uses three; a monocular camera needs four or more).
-        joint_offset: Disturbance ``d`` (6,) [rad]: true angles = encoder + d (ERRATA 14);
+        joint_offset: Disturbance ``d`` (n,) [rad]: true angles = encoder + d (ERRATA 14);
             ``None`` is stored as zeros.
         name: Short identifier, e.g. ``"paper-1"``.
         virtual_points: Project markers even when behind the camera or out of view (ERRATA 13).
         description: Free text.
         T_O_C_start: Initial camera pose (4, 4) of a free-camera scenario, else ``None``.
         T_O_C_target: Target camera pose (4, 4) of a free-camera scenario, else ``None``.
+        scene: What the camera images besides the markers: a
+            :class:`~ibvs_youla.model.textured_plane.TexturedPlane` for the methods that servo on
+            the image (``photometric``), or ``None`` (the markers alone, as the paper's scenarios);
+            the plain data of ``TexturedPlane.to_dict()`` is accepted and rebuilt.
 
     Raises:
         InvalidArrayError: wrong shape or non-finite entries.
         DegenerateMarkersError: coincident or collinear markers.
         InvalidParameterError: neither joints nor camera poses (or both), ``name`` or
-            ``description`` not strings, ``virtual_points`` not bool.
+            ``description`` not strings, ``virtual_points`` not bool, a scene that is not a
+            TexturedPlane.
     """
 
     q_start: np.ndarray | None = None
@@ -121,14 +134,20 @@ class Scenario:
     description: str = ""
     T_O_C_start: np.ndarray | None = None
     T_O_C_target: np.ndarray | None = None
+    scene: Any = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         joints = (self.q_start is not None, self.q_target is not None)
         poses = (self.T_O_C_start is not None, self.T_O_C_target is not None)
         if joints == (True, True) and poses == (False, False):
-            set_(self, "q_start", _frozen(as_array(self.q_start, "q_start", (6,))))
-            set_(self, "q_target", _frozen(as_array(self.q_target, "q_target", (6,))))
+            set_(self, "q_start", _frozen(as_array(self.q_start, "q_start", (None,))))
+            n = self.q_start.shape[0]  # type: ignore[union-attr]
+            if n < 6:
+                raise InvalidArrayError(
+                    "q_start", f"{n} joint(s)", "n >= 6 joints (a camera pose has six degrees of freedom)"
+                )
+            set_(self, "q_target", _frozen(as_array(self.q_target, "q_target", (n,))))
         elif joints == (False, False) and poses == (True, True):
             set_(self, "T_O_C_start", _frozen(as_pose(self.T_O_C_start, "T_O_C_start")))
             set_(self, "T_O_C_target", _frozen(as_pose(self.T_O_C_target, "T_O_C_target")))
@@ -138,8 +157,9 @@ class Scenario:
                 f"q_start/q_target given: {joints}, T_O_C_start/T_O_C_target given: {poses}",
                 "both joint configurations (an arm scenario) or both camera poses (a free-camera scenario)",
             )
-        offset = np.zeros(6) if self.joint_offset is None else self.joint_offset
-        set_(self, "joint_offset", _frozen(as_array(offset, "joint_offset", (6,))))
+        n = 6 if self.q_start is None else self.q_start.shape[0]
+        offset = np.zeros(n) if self.joint_offset is None else self.joint_offset
+        set_(self, "joint_offset", _frozen(as_array(offset, "joint_offset", (n,))))
         if self.markers_O is None:
             raise InvalidParameterError("markers_O", None, "marker positions (n, 3), n >= 3 [m]")
         set_(self, "markers_O", _frozen(check_marker_geometry(self.markers_O, "markers_O")))
@@ -149,6 +169,13 @@ class Scenario:
         if not isinstance(self.virtual_points, (bool, np.bool_)):
             raise InvalidParameterError("virtual_points", self.virtual_points, "True or False")
         set_(self, "virtual_points", bool(self.virtual_points))
+        if self.scene is not None:
+            from .model.textured_plane import TexturedPlane
+
+            if isinstance(self.scene, dict):  # plain data, as to_dict() writes it
+                set_(self, "scene", TexturedPlane.from_dict(self.scene))
+            elif not isinstance(self.scene, TexturedPlane):
+                raise InvalidParameterError("scene", type(self.scene).__name__, "a TexturedPlane or None")
 
     @classmethod
     def free_camera(
@@ -160,6 +187,7 @@ class Scenario:
         name: str = "free-camera",
         virtual_points: bool = False,
         description: str = "",
+        scene: Any = None,
     ) -> Scenario:
         """A camera with no arm: start and target poses (4, 4) and markers (n, 3) in the base frame [m]."""
         return cls(
@@ -169,6 +197,7 @@ class Scenario:
             description=description,
             T_O_C_start=T_O_C_start,
             T_O_C_target=T_O_C_target,
+            scene=scene,
         )
 
     @property
@@ -192,13 +221,17 @@ class Scenario:
             value = getattr(self, f.name)
             if isinstance(value, np.ndarray):
                 out[f.name] = value.tolist()
+        if self.scene is not None:  # only then: the data (and campaign keys) of scenes-less scenarios stay
+            out["scene"] = self.scene.to_dict()
         return out
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Scenario):
             return NotImplemented
-        return all(
-            np.array_equal(getattr(self, f.name), getattr(other, f.name)) for f in dataclasses.fields(self)
+        return self.scene == other.scene and all(
+            np.array_equal(getattr(self, f.name), getattr(other, f.name))
+            for f in dataclasses.fields(self)
+            if f.name != "scene"
         )
 
     __hash__ = None  # type: ignore[assignment]  # arrays: mutable-looking, not hashable
@@ -210,12 +243,12 @@ class Scenario:
 
     @property
     def q_true_start(self) -> np.ndarray:
-        """True joint angles at the start, ``q_start + d`` (6,) [rad]."""
+        """True joint angles at the start, ``q_start + d`` (n,) [rad]."""
         return self._joints("q_true_start")[0] + self.joint_offset
 
     @property
     def q_encoder_goal(self) -> np.ndarray:
-        """Encoder reading when the camera is at its target pose, ``q_target - d`` (6,) [rad]."""
+        """Encoder reading when the camera is at its target pose, ``q_target - d`` (n,) [rad]."""
         return self._joints("q_encoder_goal")[1] - self.joint_offset
 
     def _joints(self, what: str) -> tuple[np.ndarray, np.ndarray]:
@@ -237,10 +270,17 @@ class Scenario:
             ``self``, to chain.
 
         Raises:
+            InvalidArrayError: the scenario's joint vectors are not of the arm's size.
             JointLimitError: naming the configuration, the joints and their limits [deg].
         """
         self._joints("a check against joint limits")
         q_min, q_max = np.asarray(arm.q_min, dtype=float), np.asarray(arm.q_max, dtype=float)
+        if self.q_start.shape != q_min.shape:  # type: ignore[union-attr]
+            raise InvalidArrayError(
+                "scenario.q_start",
+                f"{self.q_start.shape[0]} joints (scenario {self.name!r})",  # type: ignore[union-attr]
+                f"{q_min.shape[0]}, the joints of the arm {getattr(arm, 'name', '')!r}",
+            )
         for label, q in (
             ("q_start", self.q_start),
             ("q_start + joint_offset", self.q_true_start),
@@ -282,6 +322,103 @@ def place_markers(T_O_C: Any, rays_xy: Any = MARKER_RAYS_XY, depths: Any = (2.0,
     P_C = depths[:, None] * np.column_stack([rays_xy, np.ones(len(depths))])
     # in a fixed order of operations (not the BLAS's): campaign cases store these numbers
     return matmul(P_C, T_O_C[:3, :3].T) + T_O_C[:3, 3]
+
+
+FOR_ARM_DEPTHS = (0.5, 0.6, 0.7)  # [m] markers of `for_arm` along MARKER_RAYS_XY of the target camera
+FOR_ARM_MIN_SIGMA = 0.05  # smallest singular value of J_C (6, n) accepted at the start and target
+
+
+def for_arm(
+    arm: Any,
+    seed: int = 0,
+    *,
+    q_center: Any = None,
+    spread_deg: float = 10.0,
+    step_deg: float = 5.0,
+    depths: Any = FOR_ARM_DEPTHS,
+    joint_offset_deg: float = 0.0,
+    camera: Any = None,
+    name: str | None = None,
+) -> Scenario:
+    """A seeded servoing scenario for any arm: markers in front of the camera near its home configuration.
+
+    The target configuration is ``q_center`` (default: the robot's home configuration,
+    :mod:`ibvs_youla.model.robots`) with every joint moved by a uniform draw in
+    +-``spread_deg`` (prismatic joints +-1 cm), the start the target moved by +-``step_deg`` per
+    joint (prismatic +-5 mm), both clipped 1 deg (1 mm) inside the joint limits. The markers lie
+    at ``depths`` along the rays :data:`MARKER_RAYS_XY` of the target camera
+    (:func:`place_markers`). A draw is kept when J_C has a smallest singular value >=
+    :data:`FOR_ARM_MIN_SIGMA` at both configurations and every marker is visible to ``camera``
+    (default: the simulator's) at the start, the target and the straight joint-space path
+    between them; else it is drawn again (at most 200 times).
+
+    Args:
+        arm: The arm (``camera_pose``, ``camera_jacobian``, limits, ``robot``).
+        seed: Seed of ``numpy.random.default_rng``.
+        q_center: Configuration (n,) the target is drawn around; needed for an arm that is not
+            a named robot.
+        spread_deg: Half-width of the target draw per joint [deg].
+        step_deg: Half-width of the start's offset from the target per joint [deg].
+        depths: Marker depths in the target camera (3,) [m].
+        joint_offset_deg: The unseen encoder offset d on every revolute joint [deg] (ERRATA 14).
+        camera: The camera the markers must be visible to; default ``default_camera()``.
+        name: The scenario's name; default ``"<robot>-<seed>"``.
+
+    Raises:
+        InvalidParameterError: no ``q_center`` for an arm without a home configuration, or no
+            draw meets the conditions in 200 attempts.
+    """
+    from .model.camera import default_camera
+    from .model.robots import get
+
+    n = int(arm.nq)
+    if q_center is None:
+        if getattr(arm, "robot", None) is None:
+            raise InvalidParameterError(
+                "q_center", None, f"a configuration ({n},): the arm has no home configuration"
+            )
+        q_center = get(arm.robot).q_home
+    q_center = as_array(q_center, "q_center", (n,))
+    camera = default_camera() if camera is None else camera
+    periodic = np.asarray(getattr(arm, "periodic", np.ones(n)), dtype=bool)
+    margin = np.where(periodic, np.radians(1.0), 1e-3)
+    lo, hi = np.asarray(arm.q_min) + margin, np.asarray(arm.q_max) - margin
+    spread = np.where(periodic, np.radians(spread_deg), 0.01)
+    step = np.where(periodic, np.radians(step_deg), 0.005)
+    offset = np.where(periodic, np.radians(joint_offset_deg), 0.0)
+    rng = np.random.default_rng(seed)
+    label = name if name is not None else f"{getattr(arm, 'robot', None) or arm.name}-{seed}"
+    for _ in range(200):
+        q_target = np.clip(q_center + spread * rng.uniform(-1.0, 1.0, n), lo, hi)
+        q_start = np.clip(q_target + step * rng.uniform(-1.0, 1.0, n), lo, hi)
+        sigmas = [np.linalg.svd(arm.camera_jacobian(q), compute_uv=False).min() for q in (q_start, q_target)]
+        if min(sigmas) < FOR_ARM_MIN_SIGMA:
+            continue
+        markers = place_markers(arm.camera_pose(q_target), MARKER_RAYS_XY, depths)
+        path = [q_start + offset + f * (q_target - q_start - offset) for f in np.linspace(0.0, 1.0, 11)]
+        if all(_visible(camera, arm.camera_pose(q), markers) for q in path):
+            return Scenario(
+                q_start=q_start,
+                q_target=q_target,
+                markers_O=np.round(markers, 6),
+                joint_offset=offset,
+                name=label,
+                description=(
+                    f"{arm.name}: target within +-{spread_deg:g} deg of {'q_center' if name else 'home'}, "
+                    f"start +-{step_deg:g} deg from it, markers at depths {tuple(depths)} m (seed {seed})"
+                ),
+            )
+    raise InvalidParameterError(
+        "for_arm",
+        f"arm {arm.name!r}, seed {seed}",
+        f"a draw with J_C's smallest singular value >= {FOR_ARM_MIN_SIGMA} and every marker visible "
+        "(none in 200 attempts: another q_center, smaller spread_deg/step_deg or other depths)",
+    )
+
+
+def _visible(camera: Any, T_O_C: np.ndarray, markers_O: np.ndarray) -> bool:
+    P_C = (markers_O - T_O_C[:3, 3]) @ T_O_C[:3, :3]
+    return bool(camera.visibility(P_C).all_visible)
 
 
 def _check_index(index: Any) -> int:
@@ -352,3 +489,72 @@ def get(name: str) -> Scenario:
         InvalidParameterError: unknown name (the message lists the valid ones).
     """
     return _REGISTRY[one_of(name, "scenario", NAMES)]()
+
+
+# ----------------------------------------------------------------------------- a textured plane
+TEXTURED_DEPTH_M = 1.0  # [m] the plane's distance from the target camera (ViSP's photometric example)
+TEXTURED_SQUARE_M = 0.2  # [m] side of the square of markers on the plane, centred on the optical axis
+# The default start of textured_plane(), in the target camera's frame: a few centimetres and degrees,
+# the style of start of Collewet & Marchand's experiments: (tx, ty, tz) [m], rotation vector [deg].
+TEXTURED_START = ((0.03, -0.02, 0.05), (2.0, -2.0, 3.0))
+
+
+def textured_camera() -> Any:
+    """The camera of :func:`textured_plane`: 120 x 90 px, focal length 150 px (44 x 33 deg).
+
+    ``PinholeCamera.from_focal_px(150, (120, 90))``: small images, so that a run costs little (a
+    pixel sees 6.7 mm of the plane at 1 m, the texture's 5 mm texels smoothed over 15 mm), and a
+    field of view wide enough that the square of markers stays in the image from the starts of
+    photometric servoing, with room for the disc markers' detector. ViSP's photometric example
+    has a narrower one (870 px at 320 x 240: 21 x 16 deg).
+    """
+    from .model.camera import PinholeCamera
+
+    return PinholeCamera.from_focal_px(150.0, (120, 90), name="textured-plane camera")
+
+
+def textured_plane(
+    translation_m: Any = TEXTURED_START[0],
+    rotation_deg: Any = TEXTURED_START[1],
+    *,
+    scene: Any = None,
+    name: str = "textured-plane",
+) -> Scenario:
+    """A free-camera scenario before a textured plane, the scene of photometric visual servoing.
+
+    The target camera looks at the plane's centre from :data:`TEXTURED_DEPTH_M` = 1 m, its axes
+    those of the base frame (``T_O_C* = [I, (0, 0, -1)]``, the plane z = 0: ViSP's
+    ``photometricVisualServoing`` geometry); the start is the target camera moved by
+    ``translation_m`` (tx, ty, tz) [m] and turned by the rotation vector ``rotation_deg`` [deg],
+    both in the target camera's frame: ``T_O_C0 = T_O_C* [R(rotation), t]``. The markers are the
+    corners of a 0.2 m square centred on the plane (what point methods servo on, and what the
+    comparison metrics measure); the scene defaults to ``TexturedPlane()`` (1.2 x 0.9 m, a
+    generated texture, seed 0). Image it with :func:`textured_camera`.
+
+    Raises:
+        InvalidArrayError: a translation or rotation that is not three finite numbers.
+    """
+    from scipy.spatial.transform import Rotation
+
+    from .model.textured_plane import TexturedPlane
+
+    t = as_array(translation_m, "translation_m", (3,))
+    r = as_array(rotation_deg, "rotation_deg", (3,))
+    T_target = np.eye(4)
+    T_target[2, 3] = -TEXTURED_DEPTH_M
+    delta = np.eye(4)
+    delta[:3, :3] = Rotation.from_rotvec(np.radians(r)).as_matrix()
+    delta[:3, 3] = t
+    half = 0.5 * TEXTURED_SQUARE_M
+    markers = np.array([[-half, -half, 0.0], [half, -half, 0.0], [half, half, 0.0], [-half, half, 0.0]])
+    return Scenario.free_camera(
+        T_target @ delta,
+        T_target,
+        markers,
+        name=name,
+        description=(
+            f"a textured plane 1 m before the target camera; start t = {t.round(4).tolist()} m, "
+            f"rotation {r.round(3).tolist()} deg in the target camera's frame"
+        ),
+        scene=TexturedPlane() if scene is None else scene,
+    )

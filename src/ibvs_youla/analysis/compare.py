@@ -22,8 +22,11 @@ Metrics of a run (:func:`method_row`), on the recorded samples (every ``record_e
 * **final pose error**: ``|p - p*|`` [mm] and the angle of ``R^T R*`` [deg] at the last sample;
 * **camera path**: the length of the polyline through the camera centres,
   ``sum_k |p_{k+1} - p_k|`` [m]; the straight line ``|p* - p_0|`` from the start to the
-  *target*; their ratio (``None`` when the straight line is shorter than 1 um: a pure
-  rotation, whose ideal path has length 0); the largest distance from the start [m]; the
+  *target*; their ratio, for a run that converged only, so that it reads as "how much longer
+  than the shortest way": it is then >= 1 (up to the 1 mm tolerance of the end point), while a
+  run that stopped short of the target would give any value, below 1 included (``None`` for
+  such a run, and when the straight line is shorter than 1 um: a pure rotation, whose ideal
+  path has length 0); the largest distance from the start [m]; the
   rotation travelled, ``sum_k angle(R_k^T R_{k+1})`` [deg], against the angle of
   ``R_0^T R*``;
 * **feature excursion**: the largest image coordinate over the run as a fraction of the
@@ -79,6 +82,8 @@ __all__ = [
 CONVERGED_MM = 1.0  # [mm] pose tolerance of "converged"
 CONVERGED_DEG = 0.1  # [deg]
 STRAIGHT_LINE_FLOOR_M = 1e-6  # below it the start-target line counts as a point (pure rotation)
+# simulate()'s refusals that hold for every method (the run's length): compare raises instead of a row
+_COMMON_ARGUMENTS = ("duration",)
 
 
 @dataclass(frozen=True)
@@ -98,7 +103,8 @@ class MethodRow:
         final_rotation_deg: Final camera rotation error [deg].
         path_length_m: Length of the camera centre's path [m].
         straight_line_m: Distance from the start to the target [m].
-        path_ratio: ``path_length_m / straight_line_m``; ``None`` for a pure rotation.
+        path_ratio: ``path_length_m / straight_line_m`` for a run that converged (>= 1 up to
+            the 1 mm tolerance); ``None`` for a run that did not, and for a pure rotation.
         max_distance_from_start_m: Largest distance of the camera centre from its start [m].
         rotation_travelled_deg: Sum of the rotation angles between samples [deg].
         rotation_needed_deg: Angle of the start-to-target rotation [deg].
@@ -229,7 +235,7 @@ def method_row(
         final_rotation_deg=deg,
         path_length_m=path,
         straight_line_m=straight,
-        path_ratio=path / straight if straight >= STRAIGHT_LINE_FLOOR_M else None,
+        path_ratio=path / straight if straight >= STRAIGHT_LINE_FLOOR_M and outcome == "converged" else None,
         max_distance_from_start_m=float(np.linalg.norm(pose[:, :3, 3] - pose[0, :3, 3], axis=1).max()),
         rotation_travelled_deg=_rotation_travelled_deg(pose),
         rotation_needed_deg=float(needed[0]),
@@ -279,7 +285,8 @@ class Comparison:
         """The table as Markdown: one row per controller (numbers to 3 significant digits)."""
         head = (
             "| method | status | outcome | converged at [s] | final error [mm, deg] | path [m] "
-            "| path / straight line | max excursion | peak joint speed / limit | median update [us] |"
+            "| path / straight line | max image excursion [half sensor] | peak joint speed / limit "
+            "| median update [us] |"
         )
         lines = [head, "|" + "---|" * head.count(" | ") + "---|"]
         for r in self.rows:
@@ -344,7 +351,9 @@ def compare(
 
     Raises:
         InvalidParameterError: an unknown controller name, a name given twice, an empty list,
-            a bad plant or duration, or a free-camera scenario on an arm plant.
+            a bad plant or duration (also one the simulator refuses: shorter than one tick of
+            the plant, or too long for memory: raised at the first method, before any runs),
+            or a free-camera scenario on an arm plant.
     """
     from .. import controllers as registry
     from .._validation import instance, one_of, positive
@@ -394,7 +403,10 @@ def compare(
         except IncompatibleCommandError as err:
             rows.append(MethodRow(label, "incompatible", "incompatible", _one_line(str(err))))
             continue
-        except InvalidParameterError as err:  # the controller refused the task at reset
+        except InvalidParameterError as err:
+            if err.name in _COMMON_ARGUMENTS:  # no method can run with it: the comparison is refused
+                raise
+            # the controller refused the task at reset
             rows.append(MethodRow(label, "rejected", "rejected", _one_line(str(err))))
             continue
         except SimulationDivergedError as err:  # measured on the samples recorded until then

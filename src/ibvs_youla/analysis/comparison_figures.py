@@ -8,13 +8,12 @@ errors over time on log scales and, on an arm, the joint speeds against their li
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..files import save_figure, write_text
+from ..files import save_figure, write_json, write_text
 from .compare import CONVERGED_DEG, CONVERGED_MM
 from .metrics import pose_error_series_mm_deg
 from .plots import draw_marker_trajectories
@@ -48,7 +47,7 @@ def _title(comparison: Comparison, what: str) -> str:
 
 
 def plot_image_trajectories(comparison: Comparison, max_columns: int = 4) -> Figure:
-    """Each method's marker trajectories in the image, one panel per method and lens.
+    """Each method's marker trajectories in the image, one panel per method and lens, on one scale.
 
     Panels run row-major, at most ``max_columns`` per row: one per method for a monocular
     camera, two (left ``(u_l, v)``, then right ``(u_r, v)``) for a stereo one; unused panels
@@ -56,6 +55,11 @@ def plot_image_trajectories(comparison: Comparison, max_columns: int = 4) -> Fig
     then the starts (circles) and the targets (crosses); a bounded sensor is outlined.
     Coordinates are in mm on the sensor, or unitless for a normalized camera (focal length 1,
     unbounded view).
+
+    Every panel has the same limits, so that the methods compare by eye: the square that holds
+    every trajectory, but no larger than the starts, targets and sensor outline widened by
+    their own extent on each side; a panel whose trajectory leaves it says how far it went
+    (``ax.texts``).
     """
     from matplotlib.patches import Rectangle
 
@@ -73,13 +77,27 @@ def plot_image_trajectories(comparison: Comparison, max_columns: int = 4) -> Fig
     fig = _new_figure((3.6 * cols + 0.6, 3.3 * rows + 0.6), _title(comparison, "image trajectories"))
     axes = fig.subplots(rows, cols, squeeze=False)
     w, h = 1e3 * camera.sensor_width, 1e3 * camera.sensor_height
+    (x_lim, y_lim), reach = _shared_limits(panels, scale, per, None if camera.unbounded_view else (w, h))
     for ax, (name, result, k, lens) in zip(axes.flat, panels, strict=False):
         p, target = scale * result.features, scale * result.feature_target
         draw_marker_trajectories(ax, p, target, per, k)
         if not camera.unbounded_view:
             ax.add_patch(Rectangle((-w / 2, -h / 2), w, h, fill=False, lw=1.0, color="0.3"))
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.invert_yaxis()
+        ax.set_xlim(*x_lim)
+        ax.set_ylim(y_lim[1], y_lim[0])  # v down
+        ax.set_aspect("equal", adjustable="box")
+        far = reach[(name, k)]
+        if far is not None:
+            ax.text(
+                0.02,
+                0.02,
+                f"leaves the panel: up to |{'x' if normalized else 'u'}|, "
+                f"|{'y' if normalized else 'v'}| = {far:.3g}",
+                transform=ax.transAxes,
+                fontsize="x-small",
+                color="0.2",
+                bbox={"facecolor": "white", "edgecolor": "0.6", "alpha": 0.9},
+            )
         ax.set_title(f"{name}{f' ({lens} lens)' if lens else ''}", fontsize="medium")
         ax.set_xlabel(f"{'x' if normalized else 'u'}{f'_{lens[0]}' if lens else ''} [{unit}]")
         ax.set_ylabel(f"{'y' if normalized else 'v'} [{unit}]")
@@ -89,6 +107,42 @@ def plot_image_trajectories(comparison: Comparison, max_columns: int = 4) -> Fig
     if panels:
         axes[0, 0].legend(loc="best", fontsize="x-small")
     return fig
+
+
+def _shared_limits(
+    panels: list[tuple[str, Any, int, str]], scale: float, per: int, sensor: tuple[float, float] | None
+) -> tuple[tuple[tuple[float, float], tuple[float, float]], dict[tuple[str, int], float | None]]:
+    """One square view for every panel, and how far each panel's trajectory goes beyond it (None: not).
+
+    The core is the starts, the targets and the sensor outline; the view holds every finite
+    trajectory point, clipped to the core widened by the core's extent on each side.
+    """
+    core, paths = [], {}
+    for name, result, k, _ in panels:
+        f, target = scale * result.features, scale * result.feature_target
+        n = f.shape[1] // per
+        u, v = [per * i + k for i in range(n)], [per * i + per - 1 for i in range(n)]
+        xy = np.stack([f[:, u].ravel(), f[:, v].ravel()], axis=1)
+        paths[(name, k)] = xy[np.all(np.isfinite(xy), axis=1)]
+        core += [np.stack([f[0, u], f[0, v]], axis=1), np.stack([target[u], target[v]], axis=1)]
+    if sensor is not None:
+        core.append(np.array([[-sensor[0] / 2, -sensor[1] / 2], [sensor[0] / 2, sensor[1] / 2]]))
+    points = np.concatenate(core)
+    points = points[np.all(np.isfinite(points), axis=1)]
+    if points.size == 0:
+        return ((-1.0, 1.0), (-1.0, 1.0)), dict.fromkeys(paths)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    grow = max(float(np.max(hi - lo)), 1e-9)
+    bound_lo, bound_hi = lo - grow, hi + grow
+    every = np.concatenate([points, *paths.values()])
+    lo, hi = np.maximum(every.min(axis=0), bound_lo), np.minimum(every.max(axis=0), bound_hi)
+    centre, half = 0.5 * (lo + hi), 0.55 * float(np.max(hi - lo))  # a square, 10 % margin
+    view_lo, view_hi = centre - half, centre + half
+    reach: dict[tuple[str, int], float | None] = {}
+    for key, xy in paths.items():
+        outside = xy.size and bool(np.any((xy < view_lo) | (xy > view_hi)))
+        reach[key] = float(np.max(np.abs(xy))) if outside else None
+    return ((view_lo[0], view_hi[0]), (view_lo[1], view_hi[1])), reach
 
 
 def plot_camera_paths(comparison: Comparison) -> Figure:
@@ -195,7 +249,7 @@ def save_comparison(
     out.mkdir(parents=True, exist_ok=True)
     paths = {"table.md": out / "table.md", "table.json": out / "table.json"}
     write_text(paths["table.md"], comparison.table_markdown())
-    write_text(paths["table.json"], json.dumps(comparison.to_dict(), indent=1))
+    write_json(paths["table.json"], comparison.to_dict())
     if plots:
         (out / "figures").mkdir(exist_ok=True)
         for name, fig in plot_comparison(comparison).items():

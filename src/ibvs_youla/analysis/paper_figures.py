@@ -31,7 +31,7 @@ def _new_figure(n_rows: int, title: str) -> tuple[Figure, np.ndarray]:
     # caller's backend; a notebook shows it by displaying the returned Figure.
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(10.0, 1.35 * n_rows + 1.2))
+    fig = Figure(figsize=(10.0, 1.35 * n_rows + 1.5))
     axes = fig.subplots(n_rows, 2, sharex=True, squeeze=False)
     fig.suptitle(title)
     return fig, axes
@@ -55,15 +55,13 @@ def _zoom_past_transient(ax: Axes, t: np.ndarray, y: np.ndarray, y_goal: float) 
     if (y.max() - y.min()) <= 3.0 * span:
         return
     ax.set_ylim(lo - 0.15 * span, hi + 0.15 * span)
-    ax.text(
-        0.99,
-        0.95,
+    # above the panel, where neither the signal nor the dashed target can cross it
+    ax.set_title(
         f"off scale in the first {1000 * TRANSIENT_S:.0f} ms; full range {y.min():.3g} to {y.max():.3g}",
-        transform=ax.transAxes,
-        ha="right",
-        va="top",
+        loc="right",
         fontsize=7,
         color="0.3",
+        pad=2.0,
     )
 
 
@@ -74,8 +72,16 @@ def _comparison(
     rows: list[
         tuple[str, Callable[[SimulationResult], np.ndarray], Callable[[SimulationResult], float], str]
     ],
+    target_label: str,
+    run_label: str,
 ) -> Figure:
-    """Two columns (fb | ff+fb), one row per (label, signal, target, colour); targets dashed."""
+    """Two columns (fb | ff+fb), one row per (label, signal, target, colour); targets dashed.
+
+    The figure's legend (``fig.legends[0]``, below the panels) names the run and ``target_label``
+    (the dashed line); each column's name sits above its first panel, higher than a panel's note.
+    """
+    from matplotlib.lines import Line2D
+
     fig, axes = _new_figure(len(rows), title)
     runs = ((feedback_only, "feedback only"), (feedforward_feedback, "feedforward + feedback"))
     for col, (res, name) in enumerate(runs):
@@ -87,9 +93,20 @@ def _comparison(
             _zoom_past_transient(ax, res.t, y, y_goal)
             ax.set_ylabel(label)
             ax.grid(alpha=0.3)
-        axes[0, col].set_title(name)
+        axes[0, col].annotate(
+            name,
+            (0.5, 1.0),
+            xycoords="axes fraction",
+            xytext=(0.0, 13.0),  # [pt] above a note in the panel's title line
+            textcoords="offset points",
+            ha="center",
+            va="bottom",
+            fontsize="large",
+        )
         axes[-1, col].set_xlabel("t [s]")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0.0, 0.025, 1.0, 1.0))
+    handles = [Line2D([], [], lw=1.4, color="0.35"), Line2D([], [], ls="--", lw=1.0, color="k")]
+    fig.legend(handles, [run_label, target_label], loc="lower center", ncols=2, frameon=False)
     return fig
 
 
@@ -112,7 +129,9 @@ def plot_joint_comparison(
         )
         for j in range(6)
     ]
-    return _comparison(feedback_only, feedforward_feedback, title, rows)
+    return _comparison(
+        feedback_only, feedforward_feedback, title, rows, "target: q_target - d (ERRATA 14)", "run"
+    )
 
 
 def plot_image_comparison(
@@ -133,4 +152,6 @@ def plot_image_comparison(
         )
         for k in range(9)
     ]
-    return _comparison(feedback_only, feedforward_feedback, title, rows)
+    return _comparison(
+        feedback_only, feedforward_feedback, title, rows, "target features", "run (colour: the marker)"
+    )

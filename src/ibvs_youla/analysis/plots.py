@@ -3,7 +3,7 @@
 Run figures (each function takes a :class:`~ibvs_youla.simulation.results.SimulationResult`
 and returns a matplotlib ``Figure``):
 
-* :func:`plot_joint_angles` — six encoder angles [deg] with the goal ``q_target - d``
+* :func:`plot_joint_angles` — the n encoder angles [deg] with the goal ``q_target - d``
   dashed (ERRATA 14);
 * :func:`plot_image_coordinates` — every feature coordinate of each marker (``u_l, u_r,
   v`` for a stereo camera, Eq. (9)-(11), (24); ``u, v`` for a monocular one) with its
@@ -152,14 +152,18 @@ def _title(result: SimulationResult, what: str) -> str:
 
 
 def plot_joint_angles(result: SimulationResult) -> Figure:
-    """Encoder joint angles q [deg] against time, one panel per joint.
+    """Encoder joint angles q [deg] against time, one panel per joint, two columns.
 
     ``ax.lines[0]`` is ``degrees(q[:, j])``; ``ax.lines[1]`` (dashed) the encoder goal
     ``q_target - d`` from ``metadata["q_encoder_goal"]``, when the metadata has it.
     """
-    fig, axes = _figure(3, 2, _title(result, "joint angles"), (10.0, 7.0), sharex=True)
+    n = result.q.shape[1]
+    rows = (n + 1) // 2  # two columns: 3 rows for six joints, 4 for seven (the last panel left empty)
+    fig, axes = _figure(rows, 2, _title(result, "joint angles"), (10.0, 7.0 * rows / 3), sharex=True)
+    for ax in axes.flat[n:]:
+        ax.set_visible(False)
     goal = result.metadata.get("q_encoder_goal")
-    for j, ax in enumerate(axes.flat[: result.q.shape[1]]):
+    for j, ax in enumerate(axes.flat[:n]):
         ax.plot(result.t, np.degrees(result.q[:, j]), lw=1.4, label="q (encoder)")
         if goal is not None:
             ax.axhline(np.degrees(goal[j]), **_TARGET, label="goal q_target - d")

@@ -36,7 +36,7 @@ from typing import Any
 from .._validation import flag, instance, non_negative, one_of, positive
 from ..controllers.youla import VARIANTS
 from ..exceptions import DamagedFileError, InvalidParameterError, SimulationDivergedError
-from ..files import folder_lock, remove_temporaries, save_figure, write_text
+from ..files import folder_lock, remove_temporaries, save_figure, write_json, write_text
 from ..model.arm import Arm
 from ..scenarios import NAMES
 from ..scenarios import get as get_scenario
@@ -45,7 +45,7 @@ from ..simulation.settings import SimulationSettings
 from ..simulation.simulate import simulate
 from .convergence import classify
 from .paper_figures import plot_image_comparison, plot_joint_comparison
-from .reproduction_table import SETTLING_ATOL_M, findings, table_markdown, table_row
+from .reproduction_table import NULL_MEANS, SETTLING_ATOL_M, findings, table_markdown, table_row
 
 __all__ = ["PAPER_FIGURES", "SETTLING_ATOL_M", "Reproduction", "findings", "reproduce", "run_key"]
 
@@ -183,6 +183,9 @@ def reproduce(
     what the table shows, what ``table.json`` stores next to the requested one
     (``"duration_s": {"requested": ..., "run": ...}``) and what resuming compares.
 
+    ``table.json`` is strict JSON (RFC 8259: no ``Infinity`` or ``NaN``); a time that never came
+    (not settled, never reached) is ``null``, as its key ``"null"`` says (:data:`NULL_MEANS`).
+
     Args:
         out_dir: Output folder; ``runs/``, ``figures/``, ``table.md`` and ``table.json``
             are written under it (atomically, one process at a time: module docstring).
@@ -232,12 +235,13 @@ def reproduce(
         markdown = table_markdown(rows, run_s, long_s)
         paths["table_md"] = write_text(out / "table.md", markdown)
         table = {
+            "null": NULL_MEANS,
             "rows": rows,
             "findings": findings(rows),
             "duration_s": {"requested": duration, "run": run_s},
             "diagnosis_duration_s": {"requested": diagnosis_duration, "run": long_s},
         }
-        paths["table_json"] = write_text(out / "table.json", json.dumps(table, indent=1, default=str))
+        paths["table_json"] = write_json(out / "table.json", table, default=str)
     return Reproduction(rows=tuple(rows), table_markdown=markdown, paths=paths)
 
 
@@ -290,9 +294,9 @@ def _figures(
         ("joints", plot_joint_comparison, fig_joints),
         ("image", plot_image_comparison, fig_image),
     ):
-        label = f"Figure {number}" if number else name
         what = "joint angles" if kind == "joints" else "image coordinates"
-        fig = plot(fb, ffb, f"{label} ({name}, {mode} outer loop): {what}")
+        label = f"Figure {number} ({name}, {mode} outer loop)" if number else f"{name}, {mode} outer loop"
+        fig = plot(fb, ffb, f"{label}: {what}")
         # a pyplot-free Figure: nothing to close, freed with the reference
         path = save_figure(fig, folder / f"{name}_{mode}_{kind}.png", dpi=110)
         written[f"figure:{name}_{mode}_{kind}"] = path

@@ -17,10 +17,15 @@ from ..simulation.results import SimulationResult
 from .convergence import Outcome
 from .metrics import overshoot, settling_time, summary
 
-__all__ = ["CONTROLLER_LABELS", "SETTLING_ATOL_M", "findings", "table_markdown", "table_row"]
+__all__ = ["CONTROLLER_LABELS", "NULL_MEANS", "SETTLING_ATOL_M", "findings", "table_markdown", "table_row"]
 
 CONTROLLER_LABELS = VARIANTS  # the paper's two controllers, registry name -> label
 SETTLING_ATOL_M = 1e-7  # absolute floor of the 2 % band on the sensor [m] (~0.04 px)
+# what null stands for in table.json (strict JSON has no Infinity); table.md writes 'never' and '-'
+NULL_MEANS = (
+    "never, for a time (a settling time or the time the target was reached: not within the run); "
+    "not applicable, for any other value (an overshoot without a crossing, no diagnosis run)"
+)
 
 
 def table_row(
@@ -82,6 +87,7 @@ def table_markdown(rows: list[dict[str, Any]], duration: float, diagnosis_durati
         "| peak speed / limit | peak torque / limit | markers visible [%] "
         f"| outcome at {diagnosis_duration:g} s | reached at [s] |"
     )
+    # reached at: from the longest horizon simulated (the diagnosis run when there is one)
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in rows:
         o, x = r["outcome"], r["outcome_extended"]
@@ -105,6 +111,7 @@ def table_markdown(rows: list[dict[str, Any]], duration: float, diagnosis_durati
                     if x is None
                     else f"{x['kind']} ({_fmt(x['final_image_error_m'])} m, "
                     f"{_fmt(x['position_error_mm'], '.3g')} mm)",
+                    _fmt((x or o)["reached_at_s"], ".3g"),
                 ]
             )
             + " |"
@@ -117,7 +124,10 @@ def table_markdown(rows: list[dict[str, Any]], duration: float, diagnosis_durati
         "(ERRATA 11, 16). Markers visible is the share of samples in which each marker is physically "
         "visible (in front, in the field of view, within 0.5-25 m); the paper's markers are virtual "
         "points (ERRATA 13). Settling is the largest 2 % settling time over the nine image coordinates "
-        f"(band floor {SETTLING_ATOL_M:g} m); 'never' means outside the band at the end.",
+        f"(band floor {SETTLING_ATOL_M:g} m); 'never' means outside the band at the end. Reached at is the "
+        "time from which image and pose errors stay within tolerance, at the longest horizon simulated "
+        "(the diagnosis run when there is one); 'never': not within it. In table.json a time that never "
+        "came is null.",
     ]
     return "\n".join(text) + "\n"
 

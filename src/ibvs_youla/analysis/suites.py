@@ -49,20 +49,26 @@ image (largest |x|, |y|), with points counted as leaving the view when they pass
 or go behind the camera. :func:`run_suite` runs every task with every registered controller that
 commands a camera twist (by default) and :meth:`SuiteReport.table_markdown` gives the table:
 tasks as rows, methods as columns.
+
+The suite is point-based: its scene is the four corners of the square, seen by the normalized
+camera, which has no pixels. A method that servoes on the image of a textured scene
+(``photometric``, :attr:`~ibvs_youla.controllers.Controller.needs_image`) does not apply: it is
+not run, and its column reads ``n/a`` with the reason (:data:`NOT_APPLICABLE`), rather than
+``rejected`` on every task.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .._validation import is_pair, one_of, positive, real, text
 from ..exceptions import InvalidParameterError
-from .compare import Comparison, compare
+from .compare import Comparison, MethodRow, compare
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..model.camera import PinholeCamera
@@ -73,6 +79,7 @@ __all__ = [
     "DURATION_S",
     "GANS_2003",
     "NOMINAL_HALF_VIEW",
+    "NOT_APPLICABLE",
     "RATE_HZ",
     "SQUARE_O",
     "SUITES",
@@ -81,6 +88,7 @@ __all__ = [
     "Z_TARGET",
     "GansTask",
     "SuiteReport",
+    "not_applicable",
     "run_suite",
     "suite_camera",
     "suite_settings",
@@ -94,6 +102,10 @@ Z_TARGET = 0.75  # [m] depth of the square's centre in the target camera
 RATE_HZ = 25.0  # camera (and control) rate of the free camera [Hz]
 DURATION_S = 30.0  # [s] simulated per run
 NOMINAL_HALF_VIEW = 0.5  # max |x|, |y| of a nominal square view (53.1 deg)
+NOT_APPLICABLE = (
+    "it servoes on the image of a textured scene; the suite's scene is four points seen by the "
+    "normalized camera, which has no pixels"
+)
 TESTS = (
     "rotation about the optical axis",
     "translation along the optical axis",
@@ -255,6 +267,13 @@ def twist_controllers() -> tuple[str, ...]:
     )
 
 
+def not_applicable(names: Sequence[str]) -> dict[str, str]:
+    """The named controllers the suite does not run, each with the reason (module docstring)."""
+    from .. import controllers
+
+    return {n: NOT_APPLICABLE for n in names if controllers.make(n).needs_image}
+
+
 @dataclass(frozen=True, eq=False)
 class SuiteReport:
     """Every task of a suite with every controller: one :class:`~.compare.Comparison` per task.
@@ -357,8 +376,17 @@ def run_suite(
     if not tasks or not all(isinstance(t, GansTask) for t in tasks):
         raise InvalidParameterError("tasks", tasks, "one or more GansTask")
     settings, camera = suite_settings(rate_hz), suite_camera()
-    comparisons = tuple(
-        compare(t.scenario(), names, plant="free-camera", camera=camera, duration=duration, settings=settings)
-        for t in tasks
-    )
-    return SuiteReport(name, tasks, comparisons, names, duration)
+    skipped = not_applicable(names)
+    run = [n for n in names if n not in skipped]
+    comparisons = []
+    for t in tasks:
+        if run:
+            c = compare(
+                t.scenario(), run, plant="free-camera", camera=camera, duration=duration, settings=settings
+            )
+        else:
+            c = Comparison(t.scenario(), "free-camera", camera, duration, ())
+        rows = {r.controller: r for r in c.rows}
+        rows.update({n: MethodRow(n, "n/a", "n/a", reason) for n, reason in skipped.items()})
+        comparisons.append(replace(c, rows=tuple(rows[n] for n in names)))
+    return SuiteReport(name, tasks, tuple(comparisons), names, duration)

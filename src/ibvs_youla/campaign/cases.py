@@ -29,9 +29,21 @@ Families (:data:`FAMILIES`):
   moved by up to ``difficulty`` x :data:`ROLL_TRANSLATION_M`, same visibility rule: the
   classical hard case of IBVS (Chaumette 1998: a rotation of 180 deg about the optical axis
   makes the camera retreat; near it, local minima and singular interaction matrices).
+* ``"free-textured"`` — a camera before a textured plane (:func:`~ibvs_youla.scenarios.textured_plane`:
+  the target camera 1 m before it, a 0.1 m square of markers at its centre), the texture generated
+  from a seed drawn for the case; the start a rotation about a random axis by up to
+  ``difficulty`` x :data:`TEXTURED_ROTATION_DEG` and a translation up to ``difficulty`` x
+  :data:`TEXTURED_TRANSLATION_M`: the few centimetres and degrees of photometric visual servoing's
+  experiments (Collewet & Marchand 2011), whose basin is narrow. The scene travels with the
+  case's scenario (``Scenario.to_dict()["scene"]``); every method runs on it, photometric servoing
+  included (it needs the scene, and a camera with pixels: the family's ``{"kind": "pinhole"}``).
 
 The difficulty of a case is reported with it: the rotation angle [deg] and the distance [m]
-between the start and target camera poses.
+between the start and target camera poses. The knob goes up to :data:`MAX_DIFFICULTY` = 100:
+the joint steps cover every joint's range from 12 on (12 x 30 deg), the free rotations every
+rotation from 2 on and the free-roll turn is capped at 180 deg; beyond 100 only the free
+camera's distance still grows (30 m at 100, 40 times the target's 0.75 m), toward draws that
+overflow. A draw that is not finite is rejected like any other that breaks the rules.
 """
 
 from __future__ import annotations
@@ -44,26 +56,31 @@ import numpy as np
 
 from .._memory import fits_in_memory
 from .._reproducible import matmul, norm3
-from .._validation import one_of, positive
+from .._validation import integer, one_of, real
+from ..catalog import ARM_FAMILIES, FAMILIES
 from ..exceptions import InvalidParameterError
 
 __all__ = [
     "FAMILIES",
     "LIMIT_MARGIN",
+    "MAX_DIFFICULTY",
     "MAX_JOINT_STEP_DEG",
     "MAX_ROLL_DEG",
     "MAX_ROTATION_DEG",
+    "MAX_SEED",
     "MAX_TRANSLATION_M",
     "MIN_JACOBIAN_SIGMA",
     "MIN_ROLL_DEG",
     "ROLL_TILT_DEG",
     "ROLL_TRANSLATION_M",
+    "SCENE_FAMILIES",
+    "TEXTURED_ROTATION_DEG",
+    "TEXTURED_TRANSLATION_M",
     "Case",
     "generate_cases",
 ]
 
-FAMILIES = ("arm-physical", "arm-virtual", "free-planar", "free-nonplanar", "free-roll")
-ARM_FAMILIES = ("arm-physical", "arm-virtual")
+SCENE_FAMILIES = ("free-textured",)  # their scenarios carry a scene (a textured plane)
 LIMIT_MARGIN = 0.1  # of each joint's range, kept clear at both ends
 WRIST_MARGIN_DEG = 10.0  # |q5| >= this [deg]
 MIN_JACOBIAN_SIGMA = 0.05  # smallest singular value of the 6x6 LOCAL camera Jacobian (m/rad and 1)
@@ -73,7 +90,11 @@ MAX_TRANSLATION_M = 0.3  # free camera, at difficulty 1 [m]
 MIN_ROLL_DEG, MAX_ROLL_DEG = 90.0, 180.0  # free-roll: about the optical axis, at difficulty 1 [deg]
 ROLL_TILT_DEG = 5.0  # free-roll: about a random axis, at difficulty 1 [deg]
 ROLL_TRANSLATION_M = 0.05  # free-roll, at difficulty 1 [m]
+TEXTURED_ROTATION_DEG = 5.0  # free-textured: about a random axis, at difficulty 1 [deg]
+TEXTURED_TRANSLATION_M = 0.05  # free-textured, at difficulty 1 [m]
 MAX_DRAWS = 200  # rejection sampling gives up after this many draws of one case
+MAX_DIFFICULTY = 100.0  # the difficulty knob's upper end (module docstring)
+MAX_SEED = 2**63 - 1  # a seed is stored in an int64 column
 SQUARE_O = np.array([[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]])  # [m]
 OFF_PLANE_O = np.array([[0.0, 0.05, 0.1], [0.05, -0.05, -0.1]])  # [m], the non-planar extras
 
@@ -118,14 +139,14 @@ def generate_cases(family: str, n: int, seed: int, *, difficulty: float = 1.0) -
     """``n`` cases of ``family`` from ``seed`` (module docstring).
 
     Raises:
-        InvalidParameterError: an unknown family, ``n`` < 1, a seed that is not an integer >= 0,
-            a difficulty <= 0, or a case the rules reject :data:`MAX_DRAWS` times.
+        InvalidParameterError: an unknown family, ``n`` < 1, a seed that is not an integer in
+            [0, :data:`MAX_SEED`], a difficulty outside (0, :data:`MAX_DIFFICULTY`], or a case
+            the rules reject :data:`MAX_DRAWS` times.
     """
     one_of(family, "family", FAMILIES)
-    for name, value, low in (("n", n, 1), ("seed", seed, 0)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-            raise InvalidParameterError(name, value, f"an integer >= {low}")
-    difficulty = positive(difficulty, "difficulty")
+    integer(n, "n", low=1)
+    integer(seed, "seed", low=0, high=MAX_SEED)
+    difficulty = real(difficulty, "difficulty", low=0.0, low_open=True, high=MAX_DIFFICULTY)
     fits_in_memory(4096.0 * n, "n", n, "fewer cases")  # a case holds its scenario and seed, ~4 kB
     streams = np.random.SeedSequence(int(seed)).spawn(int(n))
     if family in ARM_FAMILIES:
@@ -136,6 +157,10 @@ def generate_cases(family: str, n: int, seed: int, *, difficulty: float = 1.0) -
         return tuple(
             _arm_case(family, k, np.random.default_rng(s), difficulty, arm, camera)
             for k, s in enumerate(streams)
+        )
+    if family == "free-textured":
+        return tuple(
+            _textured_case(family, k, np.random.default_rng(s), difficulty) for k, s in enumerate(streams)
         )
     return tuple(_free_case(family, k, np.random.default_rng(s), difficulty) for k, s in enumerate(streams))
 
@@ -257,7 +282,7 @@ def _free_case(family: str, index: int, rng: np.random.Generator, difficulty: fl
         delta = _roll_offset(rng, difficulty) if family == "free-roll" else _free_offset(rng, difficulty)
         T_start = matmul(T_target, delta)
         P_C = matmul(points - T_start[:3, 3], T_start[:3, :3])
-        if P_C[:, 2].min() < 0.1 or np.abs(P_C[:, :2] / P_C[:, 2:]).max() > 1.0:
+        if not (P_C[:, 2].min() >= 0.1 and np.abs(P_C[:, :2] / P_C[:, 2:]).max() <= 1.0):  # NaN fails
             continue
         scenario = {
             "T_O_C_start": T_start,
@@ -268,3 +293,32 @@ def _free_case(family: str, index: int, rng: np.random.Generator, difficulty: fl
         }
         return Case(family, index, scenario, _difficulty(T_start, T_target), draw)
     raise _undrawable(family, index, difficulty)
+
+
+def _textured_case(family: str, index: int, rng: np.random.Generator, difficulty: float) -> Case:
+    """A free-textured case (module docstring): a small random offset and a texture of its own seed."""
+    from ..model.textured_plane import TexturedPlane
+    from ..scenarios import textured_plane
+
+    delta = np.eye(4)
+    axis = _random_axis(rng)
+    angle = math.radians(TEXTURED_ROTATION_DEG) * difficulty * rng.random()
+    delta[:3, :3] = _rotvec_matrix(angle * axis)
+    delta[:3, 3] = _uniform_ball(rng, TEXTURED_TRANSLATION_M * difficulty)
+    texture_seed = int(rng.integers(2**31))
+    base = textured_plane(scene=TexturedPlane(seed=texture_seed))
+    T_target = np.asarray(base.T_O_C_target)
+    T_start = matmul(T_target, delta)
+    points = np.asarray(base.markers_O)
+    P_C = matmul(points - T_start[:3, 3], T_start[:3, :3])
+    if P_C[:, 2].min() < 0.1 or np.abs(P_C[:, :2] / P_C[:, 2:]).max() > 1.0:  # no draw of the family's
+        raise _undrawable(family, index, difficulty)  # range comes near: only a huge difficulty does
+    scenario = {
+        "T_O_C_start": T_start,
+        "T_O_C_target": T_target,
+        "markers_O": points,
+        "name": f"{family}-{index}",
+        "virtual_points": False,
+        "scene": base.scene.to_dict(),
+    }
+    return Case(family, index, scenario, _difficulty(T_start, T_target), 1)

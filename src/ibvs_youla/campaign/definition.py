@@ -7,7 +7,10 @@ field-of-view limit), 25 Hz and 30 s (ViSP's tutorial-ibvs-4pts settings). A fre
 no joint configurations, so it runs on the free camera only; an arm family's cases are drawn
 by their joint limits and singularities, so they run on an arm plant only (``kinematic`` for
 an ideal inner loop); the paper's controllers (``fb``, ``ff+fb``) command joint positions,
-so they need an arm plant.
+so they need an arm plant. Photometric servoing (``photometric``) servoes on the image of a
+textured scene: it runs on the families whose scenarios carry one (``free-textured``, defaults:
+the free camera with the 120 x 90 px ``{"kind": "pinhole"}`` camera, 25 Hz, 30 s) and a camera with
+pixels, and is refused by name elsewhere.
 
 ``disturbances`` (fields of :class:`~ibvs_youla.simulation.disturbances.Disturbances`, without
 a seed: each case draws its own from the campaign's) apply to every run; they are stored in
@@ -21,10 +24,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
-from .._validation import one_of, positive
+from .._validation import integer, keywords_checked, one_of, positive, real
 from ..exceptions import InvalidParameterError
-from .cases import ARM_FAMILIES, FAMILIES
-from .spec import CAMERA_KINDS, ExperimentSpec, parse_method, specs_for
+from .cases import ARM_FAMILIES, FAMILIES, MAX_DIFFICULTY, MAX_SEED, SCENE_FAMILIES
+from .spec import CAMERA_KINDS, ExperimentSpec, camera_from_spec, method_label, parse_method, specs_for
 
 __all__ = ["FAMILY_DEFAULTS", "CampaignDefinition", "methods_for_plant"]
 
@@ -40,11 +43,16 @@ _FREE_DEFAULTS: dict[str, Any] = {
     "duration": 30.0,
     "settings": {"joint_rate_hz": 25.0, "camera_rate_hz": 25.0},
 }
+_TEXTURED_DEFAULTS: dict[str, Any] = {**_FREE_DEFAULTS, "camera": {"kind": "pinhole"}}
 FAMILY_DEFAULTS: dict[str, dict[str, Any]] = {
-    family: _ARM_DEFAULTS if family in ARM_FAMILIES else _FREE_DEFAULTS for family in FAMILIES
+    family: _ARM_DEFAULTS
+    if family in ARM_FAMILIES
+    else (_TEXTURED_DEFAULTS if family in SCENE_FAMILIES else _FREE_DEFAULTS)
+    for family in FAMILIES
 }
 
 
+@keywords_checked
 @dataclass(frozen=True)
 class CampaignDefinition:
     """A campaign as data: ``cases`` cases of ``family`` from ``seed``, each run by every controller.
@@ -54,16 +62,18 @@ class CampaignDefinition:
     Attributes:
         family: A case family (:data:`~.cases.FAMILIES`).
         cases: Number of cases (>= 1).
-        controllers: Method labels, each once: a registered controller name, or
+        controllers: Method labels, each method once (``"fb"`` and ``"fb[]"`` are one): a
+            registered controller name, or
             ``name[key=value,...]`` with its parameters (:func:`~.spec.parse_method`), e.g.
             ``("fb", "fb[adaptive=false]")`` runs the paper's controller with the Jacobian
             re-linearized at every frame and evaluated once.
-        seed: The campaign's seed (an integer >= 0).
+        seed: The campaign's seed (an integer in [0, 2**63 - 1]: it is stored in an int64 column).
         plant: ``"dynamic"``, ``"kinematic"`` or ``"free-camera"``.
         camera: ``{"kind": "stereo" | "mono" | "normalized", ...}``, or just the kind.
-        duration: Simulated time per run [s].
+        duration: Simulated time per run [s], at least one camera frame of the settings.
         settings: Keyword arguments of ``SimulationSettings``.
-        difficulty: The generator's difficulty knob (> 0; 1 is the stated range).
+        difficulty: The generator's difficulty knob (in (0, 100]; 1 is the stated range:
+            :data:`~.cases.MAX_DIFFICULTY`).
         controller_params: Method label -> further keyword parameters of ``controllers.make``.
         disturbances: Fields of ``Disturbances`` for every run (no seed), normalized to those
             that differ from the defaults (``{}``: none).
@@ -98,10 +108,8 @@ class CampaignDefinition:
 
         one_of(self.family, "family", FAMILIES)
         defaults = FAMILY_DEFAULTS[self.family]
-        for name, low in (("cases", 1), ("seed", 0)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise InvalidParameterError(name, value, f"an integer >= {low}")
+        put("cases", integer(self.cases, "cases", low=1))
+        put("seed", integer(self.seed, "seed", low=0, high=MAX_SEED))  # a Parquet int64 column holds it
         if not isinstance(self.controllers, (str, list, tuple)):
             raise InvalidParameterError("controllers", self.controllers, "a list of method labels")
         names = (self.controllers,) if isinstance(self.controllers, str) else tuple(self.controllers)
@@ -123,6 +131,7 @@ class CampaignDefinition:
             raise InvalidParameterError("camera", camera, "a camera kind or {'kind': ..., zed2 keywords}")
         camera = {"kind": camera} if isinstance(camera, str) else dict(camera)
         one_of(camera.get("kind"), "camera.kind", CAMERA_KINDS)
+        camera_from_spec(camera)  # its options: zed2's keywords, with values it takes
         put("camera", camera)
         duration = defaults["duration"] if self.duration is None else self.duration
         put("duration", positive(duration, "duration", unit="s"))
@@ -135,9 +144,18 @@ class CampaignDefinition:
             raise InvalidParameterError(
                 "settings", unknown, f"keywords of SimulationSettings ({', '.join(unknown)} is not one)"
             )
-        SimulationSettings(**settings)  # raises on a bad value
+        rates = SimulationSettings(**settings)  # raises on a bad value
         put("settings", settings)
-        put("difficulty", positive(self.difficulty, "difficulty"))
+        frame_s = (  # one camera frame [s]: the free camera ticks at its frames
+            1.0 / (rates.camera_rate_hz or rates.joint_rate_hz)
+            if self.plant == "free-camera"
+            else rates.dt * rates.camera_every
+        )
+        if self.duration < frame_s * (1.0 - 1e-9):  # type: ignore[operator]
+            raise InvalidParameterError(
+                "duration", self.duration, f"at least one camera frame of the settings, {frame_s:g} s"
+            )
+        put("difficulty", real(self.difficulty, "difficulty", low=0.0, low_open=True, high=MAX_DIFFICULTY))
         if not isinstance(self.controller_params, Mapping) or not all(
             isinstance(v, Mapping) for v in self.controller_params.values()
         ):
@@ -149,6 +167,16 @@ class CampaignDefinition:
         if stray:
             raise InvalidParameterError("controller_params", stray, f"names among {', '.join(names)}")
         put("controller_params", params)
+        seen: dict[str, str] = {}  # the method's own label -> the label given
+        for label, (name, own) in zip(names, methods, strict=True):
+            method = method_label(name, {**own, **params.get(label, {})})
+            if method in seen:  # every run would be stored twice, under one key
+                raise InvalidParameterError(
+                    "controllers",
+                    list(names),
+                    f"each method once: {seen[method]!r} and {label!r} are both the method {method!r}",
+                )
+            seen[method] = label
         arm_family = self.family in ARM_FAMILIES
         if arm_family == (self.plant == "free-camera"):
             valid = (
@@ -157,9 +185,10 @@ class CampaignDefinition:
             raise InvalidParameterError("plant", self.plant, f"{valid} family {self.family!r}")
         put("disturbances", self._checked_disturbances())
         for label, (name, own) in zip(names, methods, strict=True):
-            kind = registry.make(
-                name, **{**own, **params.get(label, {})}
-            ).command_type  # raises on unknown ones
+            made = registry.make(name, **{**own, **params.get(label, {})})  # raises on unknown ones
+            kind = made.command_type
+            if made.needs_image:
+                self._check_image_method(label)
             if self.plant == "free-camera" and kind not in FreeCameraPlant.accepts:
                 raise InvalidParameterError(
                     "controllers",
@@ -168,10 +197,35 @@ class CampaignDefinition:
                     f"{kind.value}: it needs an arm family and plant)",
                 )
 
-    def _checked_disturbances(self) -> dict[str, Any]:
-        from ..simulation.disturbances import Disturbances
+    def _check_image_method(self, label: str) -> None:
+        """A method that servoes on the image needs a family with a scene and a camera with pixels."""
+        from ..model.camera import PinholeCamera
         from .spec import camera_from_spec
 
+        if self.family not in SCENE_FAMILIES:
+            raise InvalidParameterError(
+                "controllers",
+                label,
+                f"methods that servo on points for the family {self.family!r} ({label!r} servoes on the "
+                f"image of a textured scene: the families {', '.join(SCENE_FAMILIES)} have one)",
+            )
+        camera = camera_from_spec(self.camera)  # type: ignore[arg-type]
+        if not isinstance(camera, PinholeCamera) or camera.unbounded_view:
+            raise InvalidParameterError(
+                "camera",
+                dict(self.camera),  # type: ignore[arg-type]
+                f"a monocular camera with pixels for {label!r} ('pinhole' or 'mono')",
+            )
+
+    def _checked_disturbances(self) -> dict[str, Any]:
+        from ..simulation.disturbances import Disturbances
+
+        if self.disturbances is not None and not isinstance(self.disturbances, Mapping):
+            raise InvalidParameterError(
+                "disturbances",
+                self.disturbances,
+                "a mapping of Disturbances fields (no seed), or None",
+            )
         given = dict(self.disturbances or {})
         if "seed" in given:
             raise InvalidParameterError(
@@ -204,9 +258,17 @@ class CampaignDefinition:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> CampaignDefinition:
-        """The definition of :meth:`to_dict` (a ``format`` key is ignored)."""
+        """The definition of :meth:`to_dict` (a ``format`` key is ignored).
+
+        Raises:
+            InvalidParameterError: not a mapping, unknown or missing fields, or values the
+                definition refuses.
+        """
+        if not isinstance(data, Mapping):
+            raise InvalidParameterError("data", type(data).__name__, "a mapping of CampaignDefinition fields")
         fields_ = {k: v for k, v in data.items() if k != "format"}
-        fields_["controllers"] = tuple(fields_.get("controllers", ()))
+        if isinstance(fields_.get("controllers"), list):
+            fields_["controllers"] = tuple(fields_["controllers"])
         return cls(**fields_)
 
     def specs(self) -> list[ExperimentSpec]:
@@ -227,12 +289,18 @@ class CampaignDefinition:
         )
 
 
-def methods_for_plant(plant: str) -> tuple[str, ...]:
-    """Every registered controller that can run on ``plant`` (the free camera takes camera twists only)."""
+def methods_for_plant(plant: str, family: str | None = None) -> tuple[str, ...]:
+    """Every registered controller that can run on ``plant`` (the free camera takes camera twists only).
+
+    With a ``family``, a method that servoes on the image of a scene only if the family's
+    scenarios carry one (:data:`~.cases.SCENE_FAMILIES`).
+    """
     from .. import controllers as registry
 
-    return tuple(
-        name
-        for name in registry.names()
-        if plant != "free-camera" or registry.make(name).command_type.value == "camera_twist"
-    )
+    def runs(name: str) -> bool:
+        made = registry.make(name)
+        if made.needs_image and family is not None and family not in SCENE_FAMILIES:
+            return False
+        return plant != "free-camera" or made.command_type.value == "camera_twist"
+
+    return tuple(name for name in registry.names() if runs(name))

@@ -30,6 +30,7 @@ the end (``analysis.compare.time_to_converge``; ``inf`` when it never does).
 
 from __future__ import annotations
 
+import hashlib
 import math
 from typing import Any
 
@@ -49,6 +50,7 @@ __all__ = [
     "error_row",
     "row_from_result",
     "timeout_row",
+    "unreadable_spec_row",
 ]
 
 OUTCOMES = (
@@ -130,6 +132,26 @@ def error_row(spec: Any, error: BaseException, wall_s: float = math.nan) -> dict
     row = {name: (math.nan if kind is float else 0 if kind is int else "") for name, kind in COLUMNS.items()}
     row.update(_base(spec, wall_s))
     row.update(outcome="error", status="error", error=f"{type(error).__name__}: {error}"[:2000])
+    return row
+
+
+def unreadable_spec_row(received: Any, error: BaseException, wall_s: float = math.nan) -> dict[str, Any]:
+    """The row of what is not a spec (malformed JSON, or not the JSON of a spec): outcome ``"error"``.
+
+    Nothing of the run is known: the ``key`` is the first 20 hex digits of the SHA-256 of what was
+    received (as text), the ``spec`` column holds that text (cut to 2000 characters), the other
+    columns are empty, zero or NaN.
+    """
+    text = received.decode("utf-8", "replace") if isinstance(received, bytes) else str(received)
+    row = {name: (math.nan if kind is float else 0 if kind is int else "") for name, kind in COLUMNS.items()}
+    row.update(
+        key=hashlib.sha256(text.encode("utf-8", "replace")).hexdigest()[:20],
+        wall_s=float(wall_s),
+        spec=text[:2000],
+        outcome="error",
+        status="error",
+        error=f"{type(error).__name__}: {error}"[:2000],
+    )
     return row
 
 

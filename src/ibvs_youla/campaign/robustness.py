@@ -26,12 +26,12 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from .._validation import positive
+from .._validation import keywords_checked, positive
 from ..exceptions import IbvsYoulaError, InvalidParameterError
 from .definition import CampaignDefinition
 from .robustness_axes import AXES, Axis, value_label
@@ -58,6 +58,7 @@ def axis_folder(axis: str, value: float) -> str:
     return f"{axis}={value_label(value)}"
 
 
+@keywords_checked
 @dataclass(frozen=True)
 class RobustnessStudy:
     """One axis swept over the same seeded cases, every method (module docstring).
@@ -70,9 +71,11 @@ class RobustnessStudy:
             controller_params), without disturbances.
 
     Raises:
-        InvalidParameterError: an unknown axis, bad values, an axis that does not apply to the
-            campaign's plant or camera (mismatch or saturation off the dynamic plant, images
-            of the normalized camera), or a campaign that ``CampaignDefinition`` rejects.
+        InvalidParameterError: an unknown axis, values that are not a list or are bad, a campaign
+            that is not a mapping of ``CampaignDefinition`` keywords (family, cases and
+            controllers at least) or that it rejects, or an axis that does not apply to the
+            campaign's plant or camera (mismatch or saturation off the dynamic plant, images of
+            the normalized camera).
     """
 
     axis: str
@@ -80,15 +83,32 @@ class RobustnessStudy:
     campaign: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.axis not in AXES:
+        if not isinstance(self.axis, str) or self.axis not in AXES:
             raise InvalidParameterError("axis", self.axis, " or ".join(repr(a) for a in AXES))
         axis = AXES[self.axis]
+        if self.values is not None and (
+            isinstance(self.values, (str, bytes, Mapping)) or not isinstance(self.values, Iterable)
+        ):
+            raise InvalidParameterError("values", self.values, f"a list of {axis.quantity} values, or None")
         values = axis.defaults if self.values is None else axis.check_values(self.values)
         object.__setattr__(self, "values", tuple(values))
+        if not isinstance(self.campaign, Mapping):
+            raise InvalidParameterError(
+                "campaign", self.campaign, "a mapping of CampaignDefinition keywords (family, cases, ...)"
+            )
         campaign = dict(self.campaign)
         if "disturbances" in campaign:
             raise InvalidParameterError(
                 "campaign.disturbances", campaign["disturbances"], "none: the axis sets them"
+            )
+        known = [f.name for f in fields(CampaignDefinition) if f.name != "disturbances"]
+        unknown = sorted(set(campaign) - set(known))
+        missing = [k for k in ("family", "cases", "controllers") if k not in campaign]
+        if unknown or missing:
+            raise InvalidParameterError(
+                "campaign",
+                f"unknown keys {unknown}" if unknown else f"no {', '.join(missing)}",
+                f"keys among {', '.join(known)} (family, cases and controllers required)",
             )
         base = CampaignDefinition(**campaign)  # checks the campaign once, and gives the plant
         if axis.dynamic_only and base.plant != "dynamic":
@@ -122,9 +142,18 @@ class RobustnessStudy:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> RobustnessStudy:
-        """The study of :meth:`to_dict` (a ``format`` key is ignored)."""
-        values = [float(v) for v in data["values"]]
-        return cls(axis=data["axis"], values=tuple(values), campaign=data["campaign"])
+        """The study of :meth:`to_dict` (a ``format`` key is ignored; ``"inf"`` is infinity).
+
+        Raises:
+            InvalidParameterError: not a mapping, unknown or missing fields, or values the study
+                refuses.
+        """
+        if not isinstance(data, Mapping):
+            raise InvalidParameterError("data", type(data).__name__, "a mapping of RobustnessStudy fields")
+        fields_ = {k: v for k, v in data.items() if k != "format"}
+        if isinstance(fields_.get("values"), list):
+            fields_["values"] = tuple(math.inf if v == "inf" else v for v in fields_["values"])
+        return cls(**fields_)
 
 
 class StudyStorageError(IbvsYoulaError):
@@ -222,16 +251,22 @@ def run_study(
         (value, :class:`~.runner.CampaignSummary`) per value.
 
     Raises:
+        InvalidParameterError: a bad argument, or campaigns that cannot run
+            (:func:`~.runner.check_runnable`); nothing written.
         StudyStorageError, CampaignStorageError: the folder holds something else (nothing written).
         SchedulerError: as :func:`~.runner.run_campaign`.
     """
-    from .runner import run_campaign, start_local_cluster
+    from .runner import check_runnable, check_workers, run_campaign, start_local_cluster
 
+    if not isinstance(study, RobustnessStudy):
+        raise InvalidParameterError("study", type(study).__name__, "a RobustnessStudy")
     if scheduler is not None and workers is not None:
         raise InvalidParameterError("workers", workers, "None with a scheduler (its workers run the tasks)")
+    check_workers(workers)
     run_timeout = positive(run_timeout, "run_timeout", unit="s")
     path = Path(out_dir)
     check_study_folder(path, study)  # before any cluster or file
+    check_runnable(study.campaigns()[0][1])  # every level: the same cases, duration and settings
     cluster = None
     if scheduler is None and workers != 0:
         cluster = start_local_cluster(workers)

@@ -116,7 +116,8 @@ class Axis:
         """The values as floats, checked: at least one, distinct, in the axis's range.
 
         Raises:
-            InvalidParameterError: no values, a repeated value, a value out of range
+            InvalidParameterError: no values, a repeated value, two values that print alike
+                (:func:`value_label`: they would share a folder), a value out of range
                 (negative; a fraction, for latency; <= 0, for saturation).
         """
         values = tuple(values)
@@ -142,6 +143,16 @@ class Axis:
             out.append(x)
         if len(set(out)) != len(out):
             raise InvalidParameterError("values", list(values), "distinct values")
+        labels = [value_label(x) for x in out]
+        alike = sorted({label for label in labels if labels.count(label) > 1})
+        if alike:  # one folder for two values: the study would never finish
+            same = ", ".join(repr(x) for x, label in zip(out, labels, strict=True) if label in alike)
+            raise InvalidParameterError(
+                "values",
+                list(values),
+                f"values that print apart in their folder names ({self.name}=<value>, 6 significant "
+                f"digits): {same} print as {', '.join(alike)}",
+            )
         return tuple(out)
 
 

@@ -4,7 +4,8 @@
 camera and settings from the spec, simulates, and returns :func:`~.metrics.row_from_result`.
 A run that raises (a bad spec, a diverging plant, a controller refusing its task) is not an
 exception for the campaign: its row has the outcome ``"error"`` (or ``"diverged"``, measured
-on the partial record) and the message. The arm (the IRB 4600) is built once per process and
+on the partial record) and the message; so has a spec that does not read (malformed JSON, or
+not a spec: :func:`~.metrics.unreadable_spec_row`). The arm (the IRB 4600) is built once per process and
 thread (its Pinocchio data is per thread already; building it costs ~50 ms).
 
 :func:`run_specs` runs several specs that differ only in their case (:func:`batch_key`: one method,
@@ -25,7 +26,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..exceptions import SimulationDivergedError
-from .metrics import error_row, row_from_result
+from .metrics import error_row, row_from_result, unreadable_spec_row
 from .spec import ExperimentSpec
 
 __all__ = ["batch_key", "run_spec", "run_spec_with_result", "run_specs", "run_specs_with_results"]
@@ -43,7 +44,7 @@ def _arm() -> Any:
 
 
 def run_spec(spec: ExperimentSpec | str) -> dict[str, Any]:
-    """The row of one run (module docstring); ``spec`` may be its JSON."""
+    """The row of one run (module docstring), whatever happens; ``spec`` may be its JSON."""
     return run_spec_with_result(spec)[0]
 
 
@@ -55,11 +56,15 @@ def run_spec_with_result(spec: ExperimentSpec | str) -> tuple[dict[str, Any], An
     """
     from ..simulation.simulate import simulate
 
-    if isinstance(spec, str):
-        spec = ExperimentSpec.from_json(spec)
     t0 = time.perf_counter()
-    arm = None if spec.plant == "free-camera" else _arm()
+    if not isinstance(spec, ExperimentSpec):
+        try:
+            spec = ExperimentSpec.from_json(spec)
+        except Exception as err:  # a row all the same: what was received, and why it is no spec
+            return unreadable_spec_row(spec, err, time.perf_counter() - t0), None
+    arm = None
     try:
+        arm = None if spec.plant == "free-camera" else _arm()
         kwargs = spec.build()
         result = simulate(**kwargs, arm=arm)
     except SimulationDivergedError as err:

@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .._validation import positive
+from .._validation import integer, positive
 from ..exceptions import IbvsYoulaError, InvalidParameterError
 from .definition import FAMILY_DEFAULTS, CampaignDefinition
 from .spec import ExperimentSpec
@@ -59,7 +59,10 @@ __all__ = [
     "CampaignDefinition",
     "CampaignSummary",
     "SchedulerError",
+    "check_runnable",
+    "check_workers",
     "default_workers",
+    "max_workers",
     "run_campaign",
     "start_local_cluster",
     "tasks_of",
@@ -90,6 +93,71 @@ def default_workers() -> int:
     """Cores this process may use (its CPU affinity where the system tells it)."""
     affinity = getattr(os, "sched_getaffinity", None)
     return len(affinity(0)) if affinity is not None else max(1, os.cpu_count() or 1)
+
+
+def max_workers() -> int:
+    """The most worker processes a local cluster may start: twice the cores this process may use.
+
+    A run is single-threaded and CPU-bound, so beyond one worker per core the workers only share
+    the cores (twice leaves room for workers that start, wait on the scheduler or write), and each
+    worker is a process of about 380 MB (measured after one arm run): a thousand would need 380 GB.
+    """
+    return 2 * default_workers()
+
+
+def check_workers(workers: Any) -> int | None:
+    """``workers`` if it is None or an integer in [0, :func:`max_workers`].
+
+    Raises:
+        InvalidParameterError: anything else, with the bound and why.
+    """
+    if workers is None:
+        return None
+    high = max_workers()
+    if isinstance(workers, bool) or not isinstance(workers, int) or not 0 <= workers <= high:
+        raise InvalidParameterError(
+            "workers",
+            workers,
+            f"an integer in [0, {high}]: 0 runs in this process, and a local cluster has at most twice "
+            f"the {default_workers()} cores this process may use (one single-threaded process of "
+            "~380 MB per run; more only share the cores)",
+        )
+    return workers
+
+
+def check_runnable(definition: CampaignDefinition) -> list[ExperimentSpec]:
+    """The specs of ``definition``, once its cases are drawn and one run's recording fits in memory.
+
+    What :func:`run_campaign` (and a robustness study, before its folder) checks before a folder
+    is bound: a duration so long that one run's samples (at the least: time, camera pose,
+    features, visibility and the plant's and commands' signals) would not fit in the memory
+    available now is one refusal here, not an error row per run.
+
+    Raises:
+        InvalidParameterError: a case the generator cannot draw (``difficulty``), or a
+            ``duration`` whose recording does not fit in memory.
+    """
+    from .._memory import fits_in_memory
+    from ..simulation.recorder import ResultRecorder
+    from ..simulation.settings import SimulationSettings
+
+    specs = definition.specs()
+    settings = SimulationSettings(**dict(definition.settings or {}))
+    free = definition.plant == "free-camera"
+    dt = 1.0 / (settings.camera_rate_hz or settings.joint_rate_hz) if free else settings.dt
+    ticks = definition.duration / dt  # type: ignore[operator]
+    n_points = len(specs[0].scenario["markers_O"])
+    per_point = 3 if dict(definition.camera)["kind"] == "stereo" else 2  # type: ignore[arg-type]
+    signals = {"camera_twist": (6,)} if free else {name: (6,) for name in ("q", "q_true", "dq", "command")}
+    n_rows, n_frames = ticks / settings.record_every + 2, ticks / (1 if free else settings.camera_every) + 1
+    fits_in_memory(
+        ResultRecorder.estimate_bytes(n_rows, n_frames, per_point * n_points, n_points, signals),
+        "duration",
+        definition.duration,
+        f"a shorter duration or a larger settings record_every (now {settings.record_every}: "
+        f"{n_rows:.3g} samples of one run are kept)",
+    )
+    return specs
 
 
 @dataclass
@@ -149,40 +217,48 @@ def run_campaign(
         definition: The campaign.
         out_dir: Its folder (:mod:`.storage`); created if absent.
         scheduler: Address of an existing Dask scheduler, e.g. ``"tcp://127.0.0.1:8786"``.
-        workers: Worker processes of the local cluster (default: one per core); 0 runs in this
-            process without Dask. Not with ``scheduler``.
+        workers: Worker processes of the local cluster (default: one per core, at most
+            :func:`max_workers`); 0 runs in this process without Dask. Not with ``scheduler``.
         progress: Show a progress bar (runs done, errors, time left) on stderr.
         series: Also store the full time series of each run made by this call in
             ``out_dir/series/<key>.npz`` (the workers return the result with the row; the
             client writes it). Runs already stored are not rerun for their series.
-        batch_rows: Rows per Parquet part.
-        batch_seconds: Longest time a finished row waits before it is written [s].
+        batch_rows: Rows per Parquet part (an integer >= 1).
+        batch_seconds: Longest time a finished row waits before it is written [s] (finite, > 0).
         run_timeout: Longest time a run may take on a Dask worker (finite, > 0) [s]: a run
-            running longer is submitted again on another worker, and stored as a
-            ``"timeout"`` row if that copy runs longer too; the first copy to return is
-            stored, a later one dropped. Runs in this process (``workers=0``) are not timed.
+            running longer is submitted again, first in line, on another worker (the late one is
+            avoided until its run returns), and stored as a ``"timeout"`` row if that copy runs
+            longer too; the first copy to return is stored, a later one dropped. It counts from
+            when a worker starts the run: leave room for a worker's start-up (imports, compiled
+            code) on its first run. Runs in this process (``workers=0``) are not timed.
 
     Returns:
         The summary; every stored row reads with ``pandas.read_parquet(out_dir + "/rows")``.
 
     Raises:
+        InvalidParameterError: a bad argument, or a campaign that cannot run
+            (:func:`check_runnable`); nothing written.
         CampaignStorageError: ``out_dir`` holds another campaign or other files, or another
             client runs it (nothing written).
         SchedulerError: the scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S`
-            (nothing written), or the cluster lost runs (what was returned is stored).
+            (nothing written), the cluster lost runs, or every worker has been hung (a run past
+            the run timeout) for a run timeout more (what was returned is stored).
     """
     from . import storage
 
     t_start = time.perf_counter()
+    if not isinstance(definition, CampaignDefinition):
+        raise InvalidParameterError("definition", type(definition).__name__, "a CampaignDefinition")
     if scheduler is not None and workers is not None:
         raise InvalidParameterError("workers", workers, "None with a scheduler (its workers run the tasks)")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
-        raise InvalidParameterError("workers", workers, "an integer >= 0")
+    check_workers(workers)
+    integer(batch_rows, "batch_rows", low=1)
+    batch_seconds = positive(batch_seconds, "batch_seconds", unit="s")
     run_timeout = positive(run_timeout, "run_timeout", unit="s")
     path = Path(out_dir)
     record = definition.to_dict()
     storage.check_folder(path, record)  # reads only: refuse before connecting or writing
-    specs = definition.specs()
+    specs = check_runnable(definition)
     done = storage.stored_keys(path) if path.is_dir() else set()
     summary = CampaignSummary(path, len(specs), sum(s.key in done for s in specs))
     if summary.stored_before == len(specs):  # nothing to run: only tidy what a killed client left
@@ -191,7 +267,7 @@ def run_campaign(
             summary.other_rows = len(storage.stored_keys(path) - {s.key for s in specs})
         summary.wall_s = time.perf_counter() - t_start
         return summary
-    with _sigterm_interrupts() as terminated:  # SIGTERM flushes the returned rows, as Ctrl-C does
+    with _sigterm_interrupts() as terminated, _quiet_client_logs():  # SIGTERM flushes rows, as Ctrl-C does
         client, cluster = (None, None) if workers == 0 else _connect(scheduler, workers)
         summary.workers = 0 if client is None else sum(_nthreads(client).values())
         try:
@@ -241,10 +317,14 @@ def start_local_cluster(workers: int | None = None) -> Any:
     What :func:`run_campaign` starts when it is given no scheduler; a caller that runs several
     campaigns in a row (a robustness study) starts one and passes its ``scheduler_address``.
     The caller closes it.
-    """
-    import logging
 
+    Raises:
+        InvalidParameterError: ``workers`` not None or an integer in [1, :func:`max_workers`].
+    """
     from distributed import LocalCluster
+
+    if check_workers(workers) == 0:
+        raise InvalidParameterError("workers", 0, "None or >= 1 for a cluster (0 runs in this process)")
 
     with _workers_ignore_ctrl_c():
         return LocalCluster(
@@ -252,7 +332,12 @@ def start_local_cluster(workers: int | None = None) -> Any:
             threads_per_worker=1,
             processes=True,
             dashboard_address=None,
-            silence_logs=logging.ERROR,
+            # the scheduler's HTTP server (health, metrics) on a free port: its default 8787, taken by
+            # another cluster or notebook, printed a warning
+            scheduler_kwargs={"dashboard_address": ":0"},
+            # the workers' own logs: a worker's failed heartbeat while the cluster closes is logged at
+            # ERROR with its traceback; the campaign reports what failed (its runs' errors) itself
+            silence_logs=logging.CRITICAL,
         )
 
 
@@ -267,6 +352,25 @@ def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any]:
         return Client(scheduler, timeout=CONNECT_TIMEOUT_S), None
     except (OSError, TimeoutError, ValueError) as err:
         raise SchedulerError(scheduler, f"cannot connect ({' '.join(str(err).split())})") from None
+
+
+@contextlib.contextmanager
+def _quiet_client_logs() -> Iterator[None]:
+    """Silence the client's Dask loggers while a campaign holds a client; restore them after.
+
+    When the scheduler goes away, distributed logs the closed batched comm with its traceback
+    (``distributed.batched``, at INFO) and its reconnection attempts (``distributed.client``);
+    the campaign says it in one line (:class:`SchedulerError`), with the rows it kept.
+    """
+    loggers = [logging.getLogger(name) for name in ("distributed.batched", "distributed.client")]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, levels, strict=True):
+            logger.setLevel(level)
 
 
 @contextlib.contextmanager
@@ -460,16 +564,21 @@ def _collect(
     clock = _RunClock(run_timeout)
     window = _window(client)
 
-    def submit(tasks: list[Task], retries: int) -> None:
+    def submit(tasks: list[Task], retries: int, again: bool = False) -> None:
+        """Submit ``tasks``; ``again``: copies of runs that did not return, run next wherever they land."""
         extra = clock.placement(client)
+        if again:  # run next wherever they land (a worker runs by priority, then submission)
+            extra["priority"] = 1
         singles, batches = [t for t in tasks if len(t) == 1], [t for t in tasks if len(t) > 1]
         if singles:
             runs = [t[0].to_json() for t in singles]
             futures = client.map(function, runs, pure=False, retries=retries, **extra)
+            clock.submitted(futures, again)
             in_flight.update(zip(futures, singles, strict=True))
         if batches:
             runs = [[s.to_json() for s in t] for t in batches]
             futures = client.map(batch_function, runs, pure=False, retries=retries, **extra)
+            clock.submitted(futures, again)
             in_flight.update(zip(futures, batches, strict=True))
 
     def done(task: Task) -> bool:
@@ -480,10 +589,11 @@ def _collect(
             return
         stored.add(spec.key)
         _store(row, result, writer, summary, bar, path)
-        copies = [f for f, t in (*in_flight.items(), *stale.items()) if any(s.key == spec.key for s in t)]
-        for other in [f for f in copies if done(in_flight.get(f) or stale[f])]:
-            in_flight.pop(other, None)
-            stale.pop(other, None)
+        # copies of tasks now all stored still running elsewhere are released; those on a hung worker are
+        # kept until the end: released, they would free its slots, and the scheduler would send it new
+        # runs to hold
+        for other in [f for f, t in in_flight.items() if any(s.key == spec.key for s in t) and done(t)]:
+            in_flight.pop(other)
             other.release()
 
     def elsewhere(spec: ExperimentSpec) -> bool:
@@ -509,6 +619,7 @@ def _collect(
         for future in finished:
             if future.status in ("lost", "pending"):  # its result died with a worker: recomputed
                 continue
+            clock.returned(future.key)
             task = in_flight.pop(future, None) or stale.pop(future, None)
             if task is None:  # released above, as a copy of stored runs
                 continue
@@ -544,26 +655,36 @@ def _collect(
                     run_timeout,
                     worker,
                 )
-                submit([(s,) for s in task if s.key not in stored], 2)
+                submit([(s,) for s in task if s.key not in stored], 2, again=True)
                 continue
             (spec,) = task
             clock.timed_out(spec.key, worker)
-            if clock.attempts[spec.key] >= 2 or not clock.healthy(client):
+            if clock.attempts[spec.key] >= 2:
                 message = f"timed out: no result after {age:.0f} s on {clock.tried(spec.key)}"
                 _LOG.warning("ibvs-youla: run %s %s; stored as a timeout", spec.key, message)
                 keep(spec, timeout_row(spec, message, age), None)
-            else:
+            else:  # elsewhere if another worker is healthy; the first copy back is stored
                 _LOG.warning(
-                    "ibvs-youla: run %s took more than %g s on %s; running it again on another worker",
+                    "ibvs-youla: run %s took more than %g s on %s; running it again%s",
                     spec.key,
                     run_timeout,
                     worker,
+                    " on another worker" if clock.healthy(client) else "",
                 )
-                submit([task], 2)
-        for future, task in clock.stuck_behind(client, in_flight):  # waiting on a hung worker: move it
-            in_flight.pop(future)
-            stale[future] = task
-            submit([task], 2)
+                submit([task], 2, again=True)
+        if clock.healthy(client):  # runs waiting behind a hung worker's run: move them (else they bounce)
+            for future, task in clock.stuck_behind(client, in_flight):
+                in_flight.pop(future)
+                stale[future] = task
+                submit([task], 2, again=True)
+        elif clock.stalled_s() > run_timeout:  # no worker can take a run: the campaign cannot go on
+            hung = ", ".join(sorted(clock.hung))
+            raise SchedulerError(
+                str(client.scheduler.address),
+                f"every worker has a run past the {run_timeout:g} s run timeout ({hung}) and none returned "
+                f"for {clock.stalled_s():.0f} s; the {writer.written + len(writer)} rows returned by this "
+                "call are stored: rerun the same command when the workers work",
+            )
         late = clock.late(in_flight)
         bar.set_postfix(errors=summary.errors, refresh=False)
         if late:
@@ -580,9 +701,12 @@ def _collect(
 class _RunClock:
     """How long each run has been running on its worker, from what the scheduler says it processes.
 
-    A worker of ``k`` threads runs the ``k`` runs it received first; a run's clock starts when it
-    is one of those (a run queued behind others on a worker is not timed). A worker with a run
-    past the timeout is hung: later runs avoid it, and the runs queued on it move elsewhere.
+    A worker of ``k`` threads runs, of the runs it holds, the ``k`` submitted first (copies of
+    runs that did not return, submitted with a higher priority, before the others; a copy left
+    on a hung worker still holds its slot); a run's clock starts when it is one of those (a run
+    queued behind others on a worker is not timed). A worker with a run past the timeout is
+    hung: later runs avoid it while another worker is healthy, and the runs queued on it move
+    elsewhere; it is healthy again once that run returns.
     """
 
     def __init__(self, run_timeout: float) -> None:
@@ -591,6 +715,9 @@ class _RunClock:
         self.poll_s = min(2.0, max(0.05, run_timeout / 10.0))
         self.hung: set[str] = set()
         self.attempts: Counter[str] = Counter()
+        self._index: dict[Any, tuple[bool, int]] = {}  # future key -> (not a copy again, submission)
+        self._overdue: dict[str, set[Any]] = {}  # hung worker -> the future keys that made it so
+        self._none_healthy_since: float | None = None  # since when every worker has been hung
         self._workers: dict[str, list[str]] = {}  # spec key -> workers it timed out on
         self._seen: dict[Any, tuple[str, float]] = {}  # future key -> (worker, first seen there)
         self._started: dict[Any, float] = {}  # future key -> when it became one of the worker's first k
@@ -607,18 +734,38 @@ class _RunClock:
         except Exception:  # the scheduler is gone, or a client without it: nothing timed
             processing = {}
         threads = _nthreads(client)
-        order = {f.key: n for n, f in enumerate(in_flight)}
+        if threads and not any(w not in self.hung for w in threads):
+            self._none_healthy_since = self._none_healthy_since or now
+        else:
+            self._none_healthy_since = None
         seen, started = {}, {}
         for worker, keys in processing.items():
-            mine = [k for k in keys if k in order]
-            for key in mine:
+            held = sorted((k for k in keys if k in self._index), key=self._index.__getitem__)  # run order
+            k = max(1, threads.get(worker, 1))
+            for n, key in enumerate(held):
                 old = self._seen.get(key)
-                seen[key] = old if old is not None and old[0] == worker else (worker, now)
-            mine.sort(key=lambda k: (seen[k][1], order[k]))
-            for key in mine[: max(1, threads.get(worker, 1))]:
-                same = self._seen.get(key, (None,))[0] == worker
-                started[key] = self._started.get(key, now) if same else now
+                same = old is not None and old[0] == worker
+                seen[key] = old if same else (worker, now)  # type: ignore[assignment]
+                if n < k:
+                    started[key] = self._started.get(key, now) if same else now
         self._seen, self._started, self._processing = seen, started, processing
+
+    def submitted(self, futures: list[Any], again: bool) -> None:
+        """Note new futures, in submission order; ``again``: copies submitted with a higher priority."""
+        for future in futures:
+            self._index[future.key] = (not again, len(self._index))
+
+    def stalled_s(self) -> float:
+        """How long every worker has been hung [s] (0 while one is healthy, or there is none)."""
+        since = self._none_healthy_since
+        return 0.0 if since is None else time.monotonic() - since
+
+    def returned(self, key: Any) -> None:
+        """The task of future ``key`` returned: a worker it made hung works again."""
+        for worker, keys in list(self._overdue.items()):
+            if key in keys:
+                del self._overdue[worker]
+                self.hung.discard(worker)
 
     def overdue(self, client: Any, in_flight: dict[Any, Any]) -> list[tuple[Any, str, float]]:
         """The tasks past the timeout (each counted once: the caller moves them out of ``in_flight``)."""
@@ -629,6 +776,7 @@ class _RunClock:
             if started is not None and now - started > self.run_timeout:
                 worker = self._seen[future.key][0]
                 self.hung.add(worker)
+                self._overdue.setdefault(worker, set()).add(future.key)
                 found.append((future, worker, now - started))
         return found
 
@@ -654,10 +802,9 @@ class _RunClock:
         return " then ".join(self._workers.get(key, [])) or "its workers"
 
     def placement(self, client: Any) -> dict[str, Any]:
-        """``client.map`` keywords that keep new runs off hung workers (none while no worker hangs)."""
-        if not self.hung:
-            return {}
-        return {"workers": self.healthy(client) or None, "allow_other_workers": False}
+        """``client.map`` keywords that keep new runs off hung workers (none while none or all hang)."""
+        healthy = self.healthy(client) if self.hung else []
+        return {"workers": healthy, "allow_other_workers": False} if healthy else {}
 
 
 def _window(client: Any) -> int:

@@ -30,8 +30,10 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import integer, positive, text
+from .._validation import integer, keywords_checked, positive, text
+from ..catalog import CAMERA_KINDS
 from ..exceptions import InvalidParameterError
+from .cases import MAX_SEED
 
 __all__ = [
     "CAMERA_KINDS",
@@ -45,7 +47,11 @@ __all__ = [
     "split_methods",
 ]
 
-CAMERA_KINDS = ("stereo", "mono", "normalized")
+
+def _cut(value: Any, limit: int = 200) -> str:
+    """``value`` as text, cut to ``limit`` characters (a message shows what was received, not all of it)."""
+    out = value if isinstance(value, str) else repr(value)
+    return out if len(out) <= limit else out[: limit - 3] + "..."
 
 
 def _plain(value: Any) -> Any:
@@ -159,21 +165,60 @@ def sort_methods(rows: Any) -> list[str]:
 
 
 def camera_from_spec(camera: Mapping[str, Any]) -> Any:
-    """The camera of a spec: ``{"kind": "stereo" | "mono" | "normalized", ...}`` (zed2 keywords).
+    """The camera of a spec: ``{"kind": "stereo" | "mono" | "normalized" | "pinhole", ...}``.
 
-    Stereo and mono default to the paper's ZED 2 optics in the VGA mode (the simulator's default).
+    Stereo and mono take ``zed2`` keywords and default to the paper's ZED 2 optics in the VGA mode
+    (the simulator's default); pinhole takes ``PinholeCamera.from_focal_px`` keywords (``focal_px``,
+    ``resolution``, ...) and defaults to the 120 x 90 px camera of the textured plane
+    (:func:`~ibvs_youla.scenarios.textured_camera`).
+
+    Raises:
+        InvalidParameterError: not a mapping, an unknown kind, options for the normalized camera
+            (it has none), or options that are not keywords of its maker (``zed2``: ``preset``,
+            ``mode``, ``frame_rate``; ``from_focal_px``) or that it refuses.
     """
     from ..model.camera import PinholeCamera, StereoCamera
 
+    if not isinstance(camera, Mapping):
+        raise InvalidParameterError("camera", camera, "a mapping {'kind': ..., the camera maker's keywords}")
     kind = camera.get("kind")
-    if kind == "normalized":
-        return PinholeCamera.normalized()
     options = {k: v for k, v in camera.items() if k != "kind"}
-    if kind == "stereo":
-        return StereoCamera.zed2(**{"mode": "VGA", **options})
-    if kind == "mono":
-        return PinholeCamera.zed2(**{"mode": "VGA", **options})
-    raise InvalidParameterError("camera.kind", kind, " or ".join(repr(k) for k in CAMERA_KINDS))
+    if kind == "normalized":
+        if options:
+            raise InvalidParameterError(
+                "camera", dict(camera), "{'kind': 'normalized'} alone (it has no options)"
+            )
+        return PinholeCamera.normalized()
+    if kind not in ("stereo", "mono", "pinhole"):
+        raise InvalidParameterError("camera.kind", kind, " or ".join(repr(k) for k in CAMERA_KINDS))
+    if kind == "pinhole":
+        unknown = sorted(set(options) - set(_PINHOLE_KEYWORDS))
+        if unknown:
+            valid = ", ".join(_PINHOLE_KEYWORDS)
+            raise InvalidParameterError(
+                "camera", unknown, f"keywords of from_focal_px besides 'kind': {valid}"
+            )
+        if "resolution" in options:
+            options["resolution"] = tuple(options["resolution"])
+        return PinholeCamera.from_focal_px(**{"focal_px": 150.0, "resolution": (120, 90), **options})
+    unknown = sorted(set(options) - set(_ZED2_KEYWORDS))
+    if unknown:
+        raise InvalidParameterError(
+            "camera", unknown, f"keywords of zed2 besides 'kind': {', '.join(_ZED2_KEYWORDS)}"
+        )
+    make = StereoCamera.zed2 if kind == "stereo" else PinholeCamera.zed2
+    return make(**{"mode": "VGA", **options})
+
+
+_ZED2_KEYWORDS = ("preset", "mode", "frame_rate")  # StereoCamera.zed2 and PinholeCamera.zed2
+_PINHOLE_KEYWORDS = (
+    "focal_px",
+    "resolution",
+    "pixel_pitch",
+    "depth_range",
+    "frame_rate",
+    "name",
+)  # from_focal_px
 
 
 def disturbance_seed(seed: int, case: int) -> int:
@@ -185,6 +230,7 @@ def disturbance_seed(seed: int, case: int) -> int:
     return int(np.random.SeedSequence(seed, spawn_key=(case, 1)).generate_state(1)[0])
 
 
+@keywords_checked
 @dataclass(frozen=True, eq=True)
 class ExperimentSpec:
     """One (case, method) run of a campaign, as plain data (module docstring).
@@ -227,8 +273,8 @@ class ExperimentSpec:
         return method_label(self.controller, self.controller_params)
 
     def __post_init__(self) -> None:
-        for name in ("case", "seed"):
-            object.__setattr__(self, name, integer(getattr(self, name), name, low=0))
+        for name in ("case", "seed"):  # stored in int64 columns
+            object.__setattr__(self, name, integer(getattr(self, name), name, low=0, high=MAX_SEED))
         for name in ("family", "controller", "plant"):
             object.__setattr__(self, name, text(getattr(self, name), name, empty=False))
         for name in ("scenario", "controller_params", "camera", "settings", "difficulty", "disturbances"):
@@ -259,8 +305,23 @@ class ExperimentSpec:
 
     @classmethod
     def from_json(cls, text: str) -> ExperimentSpec:
-        """The spec of :meth:`to_json`."""
-        return cls(**json.loads(text))
+        """The spec of :meth:`to_json`.
+
+        Raises:
+            InvalidParameterError: not a string of JSON, not a JSON object, or an object that is
+                not a spec (unknown or missing fields, or values the spec refuses).
+        """
+        if not isinstance(text, (str, bytes)):
+            raise InvalidParameterError("text", type(text).__name__, "the JSON of an ExperimentSpec")
+        try:
+            data = json.loads(text)
+        except ValueError as err:
+            raise InvalidParameterError(
+                "text", _cut(text), f"the JSON of an ExperimentSpec ({err})"
+            ) from None
+        if not isinstance(data, dict):
+            raise InvalidParameterError("text", _cut(text), "the JSON object of an ExperimentSpec")
+        return cls(**data)
 
     @property
     def key(self) -> str:
@@ -284,6 +345,7 @@ class ExperimentSpec:
             name=str(data.get("name", f"{self.family}-{self.case}")),
             virtual_points=bool(data.get("virtual_points", False)),
             description=str(data.get("description", "")),
+            scene=data.get("scene"),  # plain data of a TexturedPlane, or None
         )
         settings = dict(self.settings)
         if "sv_policy" in settings:

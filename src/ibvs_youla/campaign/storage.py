@@ -37,9 +37,10 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
+from .._validation import integer, positive
 from ..exceptions import DamagedFileError, FolderLockedError, IbvsYoulaError
 from ..files import LOCK_FILE, atomic_write, folder_lock, is_temporary, remove_temporaries, write_text
-from .metrics import COLUMNS, LATER_COLUMNS
+from .metrics import COLUMNS, LATER_COLUMNS, OUTCOMES
 
 __all__ = [
     "DEFINITION_FILE",
@@ -185,7 +186,8 @@ def _read_part(part: Path, columns: list[str] | None = None) -> Any:
     """One part (its ``columns``, default all) as a pyarrow table of the rows' schema.
 
     Raises:
-        DamagedFileError: unreadable, a page CRC that does not match, or a column missing.
+        DamagedFileError: unreadable, a page CRC that does not match, a column missing, or an
+            ``outcome`` or ``status`` that no run has.
     """
     import pyarrow.parquet as pq
 
@@ -205,6 +207,15 @@ def _read_part(part: Path, columns: list[str] | None = None) -> Any:
     if missing:
         listed = ", ".join(missing[:4]) + (", ..." if len(missing) > 4 else "")
         raise DamagedFileError(part, f"not rows of a campaign: no column {listed}", expected)
+    from ..simulation.results import STATUSES
+
+    for column, valid in (("outcome", OUTCOMES), ("status", (*STATUSES, "error", "timeout"))):
+        if column in table.column_names:
+            unknown = sorted(set(table.column(column).to_pylist()) - set(valid), key=str)
+            if unknown:
+                raise DamagedFileError(
+                    part, f"column {column!r} holds {unknown}, not one of {', '.join(valid)}", expected
+                )
     return table
 
 
@@ -216,7 +227,7 @@ def stored_keys(out_dir: str | os.PathLike[str]) -> set[str]:
     keys: set[str] = set()
     for part in _parts(out_dir):
         with contextlib.suppress(DamagedFileError):
-            keys.update(_read_part(part, ["key"]).column("key").to_pylist())
+            keys.update(_read_part(part, ["key", "outcome", "status"]).column("key").to_pylist())
     return keys
 
 
@@ -266,15 +277,18 @@ class RowWriter:
 
     Args:
         out_dir: The campaign folder (``out_dir/rows`` must exist).
-        batch_rows: Flush when this many rows wait.
-        batch_seconds: Flush when the oldest waiting row is this old [s] (checked by the caller
-            through :meth:`seconds_until_due`, and on :meth:`add`).
+        batch_rows: Flush when this many rows wait (an integer >= 1).
+        batch_seconds: Flush when the oldest waiting row is this old [s] (finite, > 0; checked by
+            the caller through :meth:`seconds_until_due`, and on :meth:`add`).
+
+    Raises:
+        InvalidParameterError: ``batch_rows`` or ``batch_seconds`` out of range.
     """
 
     def __init__(self, out_dir: str | os.PathLike[str], batch_rows: int = 20, batch_seconds: float = 10.0):
         self.rows_dir = Path(out_dir) / ROWS_DIR
-        self.batch_rows = int(batch_rows)
-        self.batch_seconds = float(batch_seconds)
+        self.batch_rows = integer(batch_rows, "batch_rows", low=1)
+        self.batch_seconds = positive(batch_seconds, "batch_seconds", unit="s")
         self.written = 0  # rows written by this writer
         self.parts: list[Path] = []
         self._buffer: list[dict[str, Any]] = []

@@ -6,6 +6,7 @@ import argparse
 import contextlib
 import io
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +18,7 @@ BENCHMARKS = {
     "simulation": "bench_simulation",
     "controllers": "bench_controllers",
     "campaign": "bench_campaign",
+    "cli": "bench_cli",
 }
 
 
@@ -41,15 +43,20 @@ def _benchmarks_dir() -> Path:
     return Path(ibvs_youla.__file__).resolve().parents[2] / "benchmarks"
 
 
-def run(args: argparse.Namespace, extra: list[str]) -> int:
-    """Run the chosen benchmark scripts; return the largest exit code they returned."""
-    import importlib.util
-
+def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
+    """Find the chosen benchmark scripts; return the function that runs them."""
     folder = _benchmarks_dir()
     names = list(BENCHMARKS) if args.which == "all" else [args.which]
     missing = [f"{BENCHMARKS[n]}.py" for n in names if not (folder / f"{BENCHMARKS[n]}.py").is_file()]
     if missing:
         raise _BenchUnavailable(folder, missing)
+    return lambda: _run(args, extra, folder, names)
+
+
+def _run(args: argparse.Namespace, extra: list[str], folder: Path, names: list[str]) -> int:
+    """Run the benchmark scripts; return the largest exit code they returned."""
+    import importlib.util
+
     if args.json is not None:
         args.json.mkdir(parents=True, exist_ok=True)
     code = 0

@@ -20,111 +20,81 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+from collections.abc import Callable
 from typing import Any
 
-from .base import PROG, UsageError, one_line
+from .base import PROG, UsageError, flag_errors
+
+# library argument name -> flag, for the refusals the campaign makes only when it runs
+FLAGS = {
+    "n": "--cases",
+    "cases": "--cases",
+    "seed": "--seed",
+    "difficulty": "--difficulty",
+    "duration": "--duration",
+    "workers": "--workers",
+    "batch_rows": "--batch-rows",
+    "run_timeout": "--run-timeout",
+    "plant": "--plant",
+    "camera": "--camera",
+    "family": "--family",
+    "controllers": "--controllers",
+}
 
 
-def seed(text: str) -> int:
-    """``--seed``: an integer >= 0 (argparse type)."""
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"received {text!r}; valid values are integers >= 0")
-    return value
-
-
-def count(low: int) -> Any:
-    """An argparse type for integers >= ``low``."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            value = low - 1
-        if value < low:
-            raise argparse.ArgumentTypeError(f"received {text!r}; valid values are integers >= {low}")
-        return value
-
-    return parse
-
-
-def method_list(text: str) -> tuple[str, ...]:
-    """``--controllers a,b[k=v],...``: method labels of registered controllers, each once (argparse type)."""
-    from .. import controllers
-    from ..campaign.spec import parse_method, split_methods
-    from ..exceptions import InvalidParameterError
-
-    labels = tuple(split_methods(text))
-    valid = controllers.names()
-    try:
-        unknown = [label for label in labels if parse_method(label)[0] not in valid]
-    except InvalidParameterError as err:
-        raise argparse.ArgumentTypeError(f"received {text!r}; {one_line(err)}") from None
-    if unknown or len(set(labels)) != len(labels):
-        what = f"unknown {', '.join(repr(n) for n in unknown)}" if unknown else "a method given twice"
-        raise argparse.ArgumentTypeError(
-            f"received {text!r} ({what}); valid: comma-separated methods, each once, a name from "
-            f"{', '.join(valid)}, optionally with parameters as name[key=value,...], e.g. fb[adaptive=false]"
-        )
-    return labels
-
-
-def scheduler_address(text: str) -> str:
-    """``--scheduler``: ``[tcp://]HOST:PORT`` (argparse type; reaching it is checked later)."""
-    from distributed.comm import parse_address, parse_host_port
-
-    try:
-        _, location = parse_address(text)
-        parse_host_port(location)
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(
-            f"received {text!r} ({err}); valid: a scheduler address such as tcp://127.0.0.1:8786"
-        ) from None
-    return text
-
-
-def run(args: argparse.Namespace, extra: list[str]) -> int:
-    """Run the campaign, print what was stored; return 0, or 1 when runs could not be stored."""
+def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
+    """The campaign's definition from the arguments, checked; return the function that runs it."""
     from ..campaign.definition import FAMILY_DEFAULTS, CampaignDefinition, methods_for_plant
-    from ..campaign.runner import run_campaign
-    from ..campaign.storage import read_rows
-    from ..exceptions import InvalidParameterError
 
     if args.scheduler is not None and args.workers is not None:
         raise UsageError("campaign: --workers sets the local cluster; with --scheduler the cluster's run")
     plant = args.plant or FAMILY_DEFAULTS[args.family]["plant"]
     names = args.controllers
     if names is None:
-        names = methods_for_plant(plant)
-    # the client's own log would print the reconnection attempts' tracebacks: errors are one line here
+        names = methods_for_plant(plant, args.family)
+    definition = CampaignDefinition(
+        family=args.family,
+        cases=args.cases,
+        controllers=names,
+        seed=args.seed,
+        plant=plant,
+        camera=args.camera,
+        duration=args.duration,
+        difficulty=args.difficulty,
+    )
+    return lambda: _run(args, definition)
+
+
+def quiet_client_log() -> None:
+    """Silence the Dask client's log (its reconnection attempts' tracebacks): errors are one line here.
+
+    Dask's import sets its loggers' levels from its configuration (``distributed.client``: warning),
+    so it is imported first: set before it, the level would be reset (the parser no longer imports
+    it, so that it stays light).
+    """
+    import distributed  # noqa: F401
+
     logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
+
+
+def _run(args: argparse.Namespace, definition: Any) -> int:
+    """Run the campaign, print what was stored; return 0, or 1 when runs could not be stored."""
+    from ..campaign.runner import run_campaign
+    from ..campaign.storage import read_rows
+
+    quiet_client_log()
     try:
-        definition = CampaignDefinition(
-            family=args.family,
-            cases=args.cases,
-            controllers=names,
-            seed=args.seed,
-            plant=plant,
-            camera=args.camera,
-            duration=args.duration,
-            difficulty=args.difficulty,
-        )
-    except InvalidParameterError as err:
-        raise UsageError(f"campaign: {one_line(err)}") from None
-    try:
-        summary = run_campaign(
-            definition,
-            args.out,
-            scheduler=args.scheduler,
-            workers=args.workers,
-            progress=not args.no_progress,
-            series=args.series,
-            batch_rows=args.batch_rows,
-            run_timeout=args.run_timeout,
-        )
+        with flag_errors(args, FLAGS):
+            summary = run_campaign(
+                definition,
+                args.out,
+                scheduler=args.scheduler,
+                workers=args.workers,
+                progress=not args.no_progress,
+                series=args.series,
+                batch_rows=args.batch_rows,
+                run_timeout=args.run_timeout,
+            )
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the returned rows were flushed
         stored = len(read_rows(args.out)) if (args.out / "rows").is_dir() else 0
         print(

@@ -13,43 +13,17 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
+from collections.abc import Callable
 
-from .base import PROG, folder_path, one_line
-
-DEFAULT_AXES = "twist,tilt"
+from .base import PROG, one_line
 
 
-def axes_pair(text: str) -> tuple[str, str]:
-    """``--axes a,b``: two different names of ``campaign.report.AXES`` (argparse type)."""
-    from ..campaign.report import AXES
-
-    axes = tuple(a.strip() for a in text.split(","))
-    if len(axes) != 2 or axes[0] == axes[1] or not set(axes) <= set(AXES):
-        raise argparse.ArgumentTypeError(
-            f"received {text!r}; valid: two different names, comma-separated, from {', '.join(AXES)}"
-        )
-    return axes  # type: ignore[return-value]
+def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
+    """Nothing to check beyond parsing (the folder's rows are read when it runs); return the writer."""
+    return lambda: run(args)
 
 
-def configure(parser: argparse.ArgumentParser) -> None:
-    """Add the arguments of ``campaign-report`` to its subparser (and set ``func`` to :func:`run`)."""
-    from ..campaign.report import AXES
-
-    parser.add_argument("dir", type=Path, metavar="DIR", help="campaign folder (it holds DIR/rows)")
-    parser.add_argument("--out", type=folder_path, metavar="OUT", help="report folder (default: DIR/report)")
-    parser.add_argument(
-        "--axes",
-        type=axes_pair,
-        metavar="A,B",
-        default=axes_pair(DEFAULT_AXES),
-        help="two coordinates of the start camera in the target camera's frame for the free-camera "
-        f"outcome maps, from {', '.join(AXES)} (default: {DEFAULT_AXES})",
-    )
-    parser.set_defaults(func=run)
-
-
-def run(args: argparse.Namespace, extra: list[str] | None = None) -> int:
+def run(args: argparse.Namespace) -> int:
     """Write the report of ``args.dir`` to ``args.out``; print the table; return 0 (1 without rows)."""
     from ..campaign.report import read_rows, write_report
     from ..exceptions import IbvsYoulaError

@@ -3,17 +3,17 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
+from typing import Any
 
-from ..files import save_figure
-from .base import flag_errors, load_optional_config
+from .base import load_optional_config
+from .parser import DESIGNS
 
-DESIGNS = ("inner", "feedforward", "outer", "all")
 FLAGS = {"tau_in": "--tau-in", "omega_n": "--omega-n", "zeta": "--zeta", "tau_forward": "--tau-forward"}
 
 
-def run(args: argparse.Namespace, extra: list[str]) -> int:
-    """Print (and plot) the chosen designs from the flags over ``--config``/default settings; return 0."""
-    from ..analysis.design_report import describe_design, plot_design_of
+def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
+    """The chosen designs from the flags over ``--config``/default settings; return the printer."""
     from ..control.feedforward import FeedforwardDesign
     from ..control.inner import InnerLoopDesign
     from ..control.outer import OuterLoopDesign
@@ -29,17 +29,25 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
         if args.tau_forward is not None
         else (base.tau_forward if args.tau_in is None else None)
     )
-    with flag_errors(args, FLAGS):
-        inner = InnerLoopDesign(tau_in)
-        ff = FeedforwardDesign(tau_in, tau_forward)
-        outer = OuterLoopDesign(omega_n, zeta, tau_in, base.sv_policy)
+    designs = {
+        "inner": InnerLoopDesign(tau_in),
+        "feedforward": FeedforwardDesign(tau_in, tau_forward),
+        "outer": OuterLoopDesign(omega_n, zeta, tau_in, base.sv_policy),
+    }
     which = DESIGNS[:3] if args.which == "all" else (args.which,)
-    designs = {"inner": inner, "feedforward": ff, "outer": outer}
-    print("\n\n".join(describe_design(designs[w]) for w in which))
+    return lambda: _show(args, [(w, designs[w]) for w in which])
+
+
+def _show(args: argparse.Namespace, designs: list[tuple[str, Any]]) -> int:
+    """Print the designs (and with ``--plot`` write their figures); return 0."""
+    from ..analysis.design_report import describe_design, plot_design_of
+    from ..files import save_figure
+
+    print("\n\n".join(describe_design(d) for _, d in designs))
     if args.plot:
         args.out.mkdir(parents=True, exist_ok=True)
-        for w in which:
-            path = args.out / f"{w}.png"
-            save_figure(plot_design_of(designs[w]), path, dpi=110)
+        for name, design in designs:
+            path = args.out / f"{name}.png"
+            save_figure(plot_design_of(design), path, dpi=110)
             print(f"wrote {path}")
     return 0

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
+from typing import Any
 
 from .base import flag_errors, load_optional_config
 
+FLAGS = {"duration": "--duration", "diagnosis_duration": "--diagnosis-duration"}
 
-def run(args: argparse.Namespace, extra: list[str]) -> int:
-    """Rerun Section 7 into ``args.out`` and print the table; return the exit code."""
-    from ..analysis.reproduce import reproduce
+
+def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
+    """The settings and duration from ``--config`` and the flags, checked; return the function that runs."""
     from ..exceptions import ConfigError
 
     # reproduce() runs the paper's settings
@@ -35,7 +38,19 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
         duration = duration if duration is not None else cfg.duration
     duration = 20.0 if duration is None else duration
     chosen = {} if args.scenarios is None else {"scenario_names": tuple(args.scenarios)}
-    with flag_errors(args, {"duration": "--duration", "diagnosis_duration": "--diagnosis-duration"}):
+    return lambda: _run(args, chosen, duration, settings)
+
+
+def _run(args: argparse.Namespace, chosen: dict[str, Any], duration: float, settings: Any) -> int:
+    """Rerun Section 7 into ``args.out`` and print the table; return 0."""
+    from ..analysis.reproduce import reproduce
+
+    from_config = (
+        {}
+        if args.config is None or args.duration is not None
+        else {"duration": f"run.duration in {args.config}"}
+    )
+    with flag_errors(args, FLAGS, from_config):
         rep = reproduce(
             args.out,
             **chosen,

@@ -1,25 +1,36 @@
 """``ibvs-youla simulate``: run one scenario; write the result, its figures and a summary.
 
 :func:`resolve_run` (scenario, arm, camera and ``simulate()`` options from ``--scenario``,
-``--config`` and the flags) is shared with ``view``.
+``--config`` and the flags) is shared with ``view``. The output folder is created only once the
+run has ended: a run refused (a plant the controller cannot drive) leaves nothing behind.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from .. import scenarios as _scenarios
-from ..exceptions import SimulationDivergedError
-from ..files import write_text
+from .. import catalog
 from .base import PROG, UsageError, flag_errors, load_optional_config, one_line
+
+# what null stands for in summary.json (strict JSON)
+SUMMARY_NULL = "never, for a settling time; not measured or not applicable, for any other value"
+FLAGS = {"duration": "--duration", "controller": "--controller", "plant": "--plant"}
 
 
 def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any]:
-    """Scenario, simulate() keyword arguments, arm and camera from --scenario/--config/flags."""
+    """Scenario, simulate() keyword arguments, arm and camera from --scenario/--config/flags.
+
+    Raises:
+        UsageError: no scenario, or a controller that cannot drive the plant (the free camera
+            takes camera twists only).
+    """
+    from .. import controllers
+    from .. import scenarios as _scenarios
+    from ..controllers import CommandType
     from ..model.arm import Arm
     from ..model.camera import default_camera
 
@@ -30,7 +41,7 @@ def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any
         scenario = cfg.scenario
     else:
         raise UsageError(
-            f"{args.command}: give --scenario NAME ({', '.join(_scenarios.NAMES)}) "
+            f"{args.command}: give --scenario NAME ({', '.join(catalog.SCENARIOS)}) "
             "or --config FILE with a [scenario] table"
         )
 
@@ -47,31 +58,65 @@ def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any
         "duration": pick(args.duration, "duration", 10.0),
         "settings": None if cfg is None else cfg.settings,
     }
+    if kwargs["plant"] == "free-camera":
+        command = controllers.make(kwargs["controller"]).command_type
+        if command is not CommandType.CAMERA_TWIST:
+            twist = [
+                n for n in controllers.names() if controllers.make(n).command_type == CommandType.CAMERA_TWIST
+            ]
+            raise UsageError(
+                f"{args.command}: the 'free-camera' plant takes camera twists and {kwargs['controller']} "
+                f"commands {command.value}; valid: an arm plant (--plant dynamic or kinematic), or a "
+                f"controller that commands a camera twist: {', '.join(twist)}"
+            )
     arm = Arm.irb4600() if cfg is None else cfg.make_arm()
     camera = default_camera() if cfg is None else cfg.make_camera()
+    if kwargs["plant"] != "free-camera" and scenario.has_joints:
+        scenario.validate_for(arm)  # JointLimitError: a [scenario] outside the arm's limits
     return scenario, kwargs, arm, camera
 
 
-def run(args: argparse.Namespace, extra: list[str]) -> int:
-    """Simulate one scenario, write result.npz, summary.json and figures; return the exit code."""
-    from ..simulation.simulate import simulate
+def config_keys(args: argparse.Namespace) -> dict[str, str]:
+    """Where each run option came from when the ``--config`` file gave it (for :func:`flag_errors`)."""
+    if args.config is None:
+        return {}
+    return {
+        name: f"run.{name} in {args.config}"
+        for name in ("controller", "plant", "duration")
+        if getattr(args, name, None) is None
+    }
 
+
+def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
+    """The scenario, controller, arm and camera of the run, checked; return the function that runs it."""
     scenario, kwargs, arm, camera = resolve_run(args)
     loop = "adaptive" if kwargs["adaptive"] else "fixed"
     out = args.out or Path("results") / f"{scenario.name or 'custom'}_{kwargs['controller']}_{loop}"
-    out.mkdir(parents=True, exist_ok=True)
+    return lambda: _run(args, scenario, kwargs, arm, camera, out)
+
+
+def _run(
+    args: argparse.Namespace, scenario: Any, kwargs: dict[str, Any], arm: Any, camera: Any, out: Path
+) -> int:
+    """Simulate, then write result.npz, summary.json and the figures into ``out``; return the exit code."""
+    from ..exceptions import SimulationDivergedError
+    from ..files import write_json
+    from ..simulation.simulate import simulate
+
     try:
-        with flag_errors(args, {"duration": "--duration"}):
+        with flag_errors(args, FLAGS, config_keys(args)):
             result = simulate(scenario, **kwargs, arm=arm, camera=camera, progress=True)
     except SimulationDivergedError as err:
         where = "no samples recorded"
         if err.partial is not None:
+            out.mkdir(parents=True, exist_ok=True)
             where = f"partial result saved to {err.partial.save(out / 'result_partial.npz')}"
         print(f"{PROG}: error: simulation diverged: {one_line(err)} ({where})", file=sys.stderr)
         return 1
+    out.mkdir(parents=True, exist_ok=True)
     path = result.save(out / "result.npz")
     text, summary = _summary(result, arm)
-    write_text(out / "summary.json", json.dumps(summary, indent=1))
+    write_json(out / "summary.json", {"null": SUMMARY_NULL, **summary})
     written = [path.name, "summary.json"]
     if not args.no_plots:
         from ..analysis.plots import save_result_figures

@@ -3,15 +3,30 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
+from typing import Any
 
 from ..exceptions import DamagedFileError, IbvsYoulaError
-from .base import UsageError
-from .simulate import resolve_run
+from .base import UsageError, flag_errors
+from .simulate import FLAGS as RUN_FLAGS
+from .simulate import config_keys, resolve_run
+
+FLAGS = RUN_FLAGS  # the run options are simulate's
 
 _ARM_RUN_KEYS = ("q_start", "q_target", "markers_O", "joint_offset", "scenario", "virtual_points")
 
 
-def run(args: argparse.Namespace, extra: list[str]) -> int:
+def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
+    """The run to play (checked now, simulated later), or the result file to load; return the player."""
+    if args.result is not None:
+        if args.scenario or args.config:
+            raise UsageError("view: give either --result FILE or --scenario/--config, not both")
+        return lambda: _play(args, None)
+    run = resolve_run(args)
+    return lambda: _play(args, run)
+
+
+def _play(args: argparse.Namespace, run: tuple[Any, ...] | None) -> int:
     """Play the run in the Meshcat viewer until Ctrl-C (or once with ``--no-wait``); return 0.
 
     A ``--zmq-url`` server is asked for first, so that one that does not answer within
@@ -30,9 +45,7 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
     from ..scenarios import Scenario
     from ..simulation.results import SimulationResult
 
-    if args.result is not None:
-        if args.scenario or args.config:
-            raise UsageError("view: give either --result FILE or --scenario/--config, not both")
+    if run is None:
         result = SimulationResult.load(args.result)
         m = result.metadata
         missing = [k for k in _ARM_RUN_KEYS if k not in m]
@@ -54,8 +67,9 @@ def run(args: argparse.Namespace, extra: list[str]) -> int:
     else:
         from ..simulation.simulate import simulate
 
-        scenario, kwargs, arm, camera = resolve_run(args)
-        result = simulate(scenario, **kwargs, arm=arm, camera=camera, progress=True)
+        scenario, kwargs, arm, camera = run
+        with flag_errors(args, FLAGS, config_keys(args)):
+            result = simulate(scenario, **kwargs, arm=arm, camera=camera, progress=True)
     viewer = Viewer(
         arm, camera, zmq_url=args.zmq_url, open_browser=args.open, connect_timeout=args.zmq_timeout
     )

@@ -9,11 +9,16 @@ The paper's controllers ("fb", "ff+fb") command joint positions; the methods the
 compares itself with command a camera twist and run on every plant: classical IBVS with L
 at the current, desired or mean features (Chaumette & Hutchinson 2006), PBVS, 2.5-D visual
 servoing (Malis, Chaumette & Boudet 1999), hybrid switched IBVS/PBVS (Gans & Hutchinson
-2007) and MPC-IBVS (a QP per frame through qpsolvers).
+2007) and MPC-IBVS (a QP per frame through qpsolvers); and the field's answers to the
+retreat and the local minima of point IBVS: polar-coordinate IBVS (Iwatsuki & Okiyama 2005)
+XY/Z-partitioned IBVS (Corke & Hutchinson 2001) and image-moment IBVS (Tahri & Chaumette
+2005); and photometric visual servoing (Collewet & Marchand 2011: the luminance of every pixel,
+on a scenario with a textured scene).
 
 >>> from ibvs_youla import controllers
->>> controllers.names()
-('fb', 'ff+fb', 'ibvs-current', 'ibvs-desired', 'ibvs-mean', 'pbvs', '2.5d', 'hybrid', 'mpc-ibvs')
+>>> controllers.names()  # doctest: +NORMALIZE_WHITESPACE
+('fb', 'ff+fb', 'ibvs-current', 'ibvs-desired', 'ibvs-mean', 'pbvs', '2.5d', 'hybrid', 'mpc-ibvs',
+ 'ibvs-polar', 'ibvs-partitioned', 'ibvs-moments', 'photometric')
 >>> controllers.make("ff+fb", adaptive=False).command_type.value
 'joint_position'
 """
@@ -139,7 +144,17 @@ register(
 
 
 # The modules of the methods the paper compares itself with, in registration order.
-_BASELINES = ("ibvs", "pbvs", "two_half_d", "hybrid", "mpc_ibvs")
+_BASELINES = (
+    "ibvs",
+    "pbvs",
+    "two_half_d",
+    "hybrid",
+    "mpc_ibvs",
+    "polar",
+    "partitioned",
+    "moments",
+    "photometric",
+)
 
 
 def _register_baselines() -> None:

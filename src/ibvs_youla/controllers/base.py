@@ -10,8 +10,9 @@ that contract, so a controller depends on nothing in the simulation:
   features as measured at the target, target camera pose, start and target joints) and
   the loop's periods. By default they equal the truth; perturbing them studies
   calibration error and model mismatch without touching the loop.
-* :class:`CameraFrame` — each camera frame: features and per-point visibility, and each
-  point's measured depth when the sensor measures depth (an RGB-D camera).
+* :class:`CameraFrame` — each camera frame: features and per-point visibility, each point's
+  measured depth when the sensor measures depth (an RGB-D camera), and the image itself for a
+  controller that servoes on the image (:attr:`Controller.needs_image`).
 * :class:`JointReading` — each joint tick: encoder angles and joint speeds (``None`` on a
   plant without joints, the free-flying camera).
 * :class:`CommandType` — what the controller returns each tick: joint torque [N m],
@@ -21,7 +22,8 @@ that contract, so a controller depends on nothing in the simulation:
 A controller is called twice per cycle: :meth:`Controller.update` at camera rate with a
 frame (the image-based part), then :meth:`Controller.command` at every tick (joint rate
 on an arm, camera rate on the free-flying camera), whose value is held until the next
-tick (zero-order hold).
+tick (zero-order hold). The arrays of the frames and readings it is given are its own copies:
+what it writes into them changes neither the recorded measurements nor the plant.
 """
 
 from __future__ import annotations
@@ -92,12 +94,16 @@ class CameraFrame(NamedTuple):
         depth: Measured depth Z_C of each point (n,) [m], from a sensor that measures depth
             (``simulate(..., sensor="depth")``, an RGB-D camera); ``None`` when the sensor
             measures none, and a law that needs depths estimates them from its own models.
+        image: The grey-level image (height, width) the frame was taken from, float32, for a
+            controller that servoes on the image (:attr:`Controller.needs_image`); ``None``
+            otherwise (the point sensors measure no image for the controller).
     """
 
     t: float
     features: np.ndarray
     visible: np.ndarray
     depth: np.ndarray | None = None
+    image: np.ndarray | None = None
 
 
 class JointReading(NamedTuple):
@@ -131,12 +137,19 @@ class ServoTask:
         q_start: Encoder reading at the start (n,) [rad]; ``None`` without an arm.
         q_target: Joint configuration of the target (n,) [rad]; ``None`` without an arm.
         T_O_C_start: Camera pose at the start (4, 4), as the controller believes it.
+        scene: The controller's model of the imaged scene (a
+            :class:`~ibvs_youla.model.textured_plane.TexturedPlane`) for a controller that servoes
+            on the image; ``None`` otherwise.
+        image_target: The image (height, width) taken at the target, noise-free (taught by
+            showing, as the target features), for a controller that servoes on the image;
+            ``None`` otherwise.
 
     Raises:
         InvalidArrayError: non-finite or mis-shaped arrays, coincident or collinear markers
             (DegenerateMarkersError), a pose that is not a rigid transform.
         InvalidParameterError: a period that is not a real number > 0, ``virtual_points`` not
-            True or False, ``arm`` not an Arm. (The camera is checked by each controller at
+            True or False, ``arm`` not an Arm, ``scene`` not a TexturedPlane, ``image_target``
+            not a finite 2-D array. (The camera is checked by each controller at
             reset, against what it needs.)
     """
 
@@ -151,11 +164,14 @@ class ServoTask:
     q_start: np.ndarray | None = None
     q_target: np.ndarray | None = None
     T_O_C_start: np.ndarray | None = None
+    scene: Any = None
+    image_target: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         from .._validation import as_array, as_pose, flag, instance, positive
         from ..estimation.stereo_pose import check_marker_geometry
         from ..model.arm import Arm
+        from ..model.textured_plane import TexturedPlane
 
         set_ = object.__setattr__
         set_(self, "markers_O", check_marker_geometry(self.markers_O, "markers_O"))
@@ -172,6 +188,10 @@ class ServoTask:
                 set_(self, name, as_array(getattr(self, name), name, n))
         if self.T_O_C_start is not None:
             set_(self, "T_O_C_start", as_pose(self.T_O_C_start, "T_O_C_start"))
+        if self.scene is not None:
+            instance(self.scene, "scene", TexturedPlane, "a TexturedPlane or None")
+        if self.image_target is not None:
+            set_(self, "image_target", as_array(self.image_target, "image_target", (None, None)))
 
     @property
     def n_points(self) -> int:
@@ -191,6 +211,9 @@ class Controller:
         command_type: What :meth:`command` returns (a :class:`CommandType`); every controller
             must set it (the loop builds the actuation chain from it).
         name: Short identifier stored in the result's metadata.
+        needs_image: The controller servoes on the image itself (default False): ``simulate``
+            then needs a scenario with a scene, gives every frame its image
+            (:attr:`CameraFrame.image`) and the task the target image and the scene.
 
     A subclass usually overrides :meth:`reset` (build what depends on the task),
     :meth:`update` (use a camera frame) and :meth:`command` (return the held command).
@@ -200,6 +223,7 @@ class Controller:
 
     command_type: ClassVar[CommandType]  # no default: a joint command must never be taken for a twist
     name: ClassVar[str] = "controller"
+    needs_image: ClassVar[bool] = False  # servoes on the image: frames carry it, the task its target
 
     def reset(self, task: ServoTask) -> None:
         """Start a run: keep the task (the controller's models and goal)."""

@@ -1,9 +1,9 @@
 """Eye-in-hand model F: joint angles -> stereo features of fixed markers, its Jacobian and inverse.
 
 Sec. 4.4-4.5 (Eq. 21-25): P_C = T_C_O P_O, features = M(P_C) (Eq. 11; the paper's p_image), so
-features = F(q, Pa, P_O) (Eq. 24). Sec. 6.3: the 9x6 Jacobian J = L(P_C) J_C(q) (Eq. 51, ERRATA 12)
-and the estimate q~ = F^-1(features) (Eq. 62) through stereo P3P (Sec. 3, Appendix C) and the
-arm's inverse kinematics.
+features = F(q, Pa, P_O) (Eq. 24). Sec. 6.3: the 9 x n Jacobian J = L(P_C) J_C(q) (Eq. 51,
+ERRATA 12; 9x6 for six joints) and the estimate q~ = F^-1(features) (Eq. 62) through stereo P3P
+(Sec. 3, Appendix C) and the arm's inverse kinematics.
 The public methods validate their arguments (a NaN or mis-shaped input raises InvalidArrayError,
 never a NaN result or a bare numpy error); constants are precomputed. Two of them are a check in
 front of a kernel that the servo loop's controller calls directly, at every camera frame, with
@@ -46,8 +46,9 @@ class EyeInHand:
     Features are point-major, ``[u_l1, u_r1, v1, u_l2, ...]`` [m on the sensor] (Eq. 24).
 
     Args:
-        arm: The arm: ``camera_pose(q)`` (T_O_C), ``camera_pose_and_jacobian(q)`` (with J_C, 6x6
-            LOCAL, twist [v; w] in C) and ``ik_nearest(T_O_C, q_near)`` (the IK branch nearest q_near).
+        arm: The arm: ``camera_pose(q)`` (T_O_C), ``camera_pose_and_jacobian(q)`` (with J_C,
+            6 x n_joints LOCAL, twist [v; w] in C) and ``ik_nearest(T_O_C, q_near)`` (the IK
+            solution nearest q_near).
         camera: The stereo camera.
         markers_O: Marker positions (n, 3), n >= 3 (the paper uses 3), in the base frame [m].
         virtual_points: Let markers lie behind the camera (negative depth and disparity), as the
@@ -86,7 +87,7 @@ class EyeInHand:
         return self._points_in_camera(as_pose(T_O_C, "T_O_C"))
 
     def points_in_camera(self, q: np.ndarray) -> np.ndarray:
-        """Markers in the camera frame at joint angles q (6,) [rad], (n, 3) [m]."""
+        """Markers in the camera frame at joint angles q (n_joints,) [rad], (n, 3) [m]."""
         return self._points_in_camera(self.arm.camera_pose(q))
 
     def _points_in_camera(self, T_O_C: np.ndarray) -> np.ndarray:
@@ -103,24 +104,24 @@ class EyeInHand:
         return project_points(self.camera, self.points_in_camera_at_pose(T_O_C), self.virtual_points)
 
     def features(self, q: np.ndarray) -> np.ndarray:
-        """Eye-in-hand map F of Eq. (24): stereo features (3n,) [m] at joint angles q (6,) [rad]."""
+        """Eye-in-hand map F of Eq. (24): stereo features (3n,) [m] at joint angles q (n_joints,) [rad]."""
         return project_points(self.camera, self.points_in_camera(q), self.virtual_points)
 
     def jacobian(self, q: np.ndarray) -> np.ndarray:
-        """Image Jacobian dF/dq (3n, 6) of Eq. (51) (9x6 for three markers, ERRATA 12).
+        """Image Jacobian dF/dq (3n, n_joints) of Eq. (51) (9x6 for three markers and six joints, ERRATA 12).
 
         J = L(P_C) J_C(q): the stereo interaction matrix (twist [v; w] in C to feature rates) times
         the arm's LOCAL camera Jacobian (dq to that twist). Rank 5 at wrist singularities (ERRATA 7).
 
         Raises:
-            InvalidArrayError: ``q`` is not a finite (6,) array.
+            InvalidArrayError: ``q`` is not a finite (n_joints,) array.
         """
-        return self.image_jacobian(as_array(q, "q", (6,)))
+        return self.image_jacobian(as_array(q, "q", (self.arm.nq,)))
 
     def image_jacobian(self, q: np.ndarray) -> np.ndarray:
         """`jacobian` from one kinematics pass of the arm (``Arm.camera_pose_and_jacobian``).
 
-        Kernel: does not validate ``q``, which must be a finite float64 (6,) array [rad].
+        Kernel: does not validate ``q``, which must be a finite float64 (n_joints,) array [rad].
         """
         return self._jacobian_at(*self.arm.camera_pose_and_jacobian(q))
 
@@ -168,21 +169,21 @@ class EyeInHand:
         return T_O_C
 
     def estimate_q(self, features: np.ndarray, q_near: np.ndarray) -> np.ndarray:
-        """Joint angles q~ = F^-1(features) of Eq. (62) (6,) [rad]: the IK branch nearest to q_near.
+        """Joint angles q~ = F^-1(features) of Eq. (62) (n_joints,) [rad]: the IK branch nearest to q_near.
 
         Raises:
             InvalidArrayError: ``features`` is not a finite (3n,) or (n, 3) array, or ``q_near`` not a
-                finite (6,) array.
+                finite (n_joints,) array.
             InvalidDisparityError: see `estimate_camera_pose`.
             UnreachablePoseError: no IK branch within the joint limits reaches the estimated pose.
         """
-        return self.q_from_image(self._check_features(features), as_array(q_near, "q_near", (6,)))
+        return self.q_from_image(self._check_features(features), as_array(q_near, "q_near", (self.arm.nq,)))
 
     def q_from_image(self, features: np.ndarray, q_near: np.ndarray) -> np.ndarray:
         """q~ = F^-1(features) of Eq. (62): stereo P3P, then the IK branch nearest q_near (Arm.ik_nearest).
 
         Kernel of `estimate_q`: does not validate its arguments. ``features`` must be a finite
-        float (3n,) or (n, 3) array [m], ``q_near`` a finite float (6,) array [rad]; the errors
+        float (3n,) or (n, 3) array [m], ``q_near`` a finite float (n_joints,) array [rad]; the errors
         of `estimate_q` on valid input (disparity, unreachable pose) are still raised.
         """
         return self.arm.ik_nearest(self._camera_pose_from_image(features), q_near)

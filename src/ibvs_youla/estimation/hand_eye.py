@@ -95,7 +95,7 @@ def simulate_hand_eye_run(
         arm: Provides ``flange_pose(q)``, ``camera_pose(q)``, ``q_min``, ``q_max``.
         camera: The stereo camera.
         markers_O: Marker positions (3, 3) in the base frame [m].
-        q_center: Joint vector (6,) around which poses are drawn [rad].
+        q_center: Joint vector (n,) around which poses are drawn [rad], n the arm's joints.
         n_poses: Number of poses (>= 3 gives >= 2 motions).
         rng: Random generator (seeded by the caller).
         spread: Half-width of the uniform joint perturbation [rad].
@@ -109,14 +109,15 @@ def simulate_hand_eye_run(
         CalibrationError: fewer than n_poses draws had every marker in view.
     """
     markers_O = check_marker_geometry(markers_O, "markers_O")
-    q_center = as_array(q_center, "q_center", (6,))
+    n_joints = len(np.asarray(arm.q_min))
+    q_center = as_array(q_center, "q_center", (n_joints,))
     if int(n_poses) != n_poses or n_poses < 2:
         raise InvalidParameterError("n_poses", n_poses, "an integer >= 2")
     spread, pixel_noise = non_negative(spread, "spread"), non_negative(pixel_noise, "pixel_noise")
     P_M = marker_coordinates(markers_O)
     T_O_E, T_C_M = [], []
     for _ in range(max_tries):
-        q = np.clip(q_center + rng.uniform(-spread, spread, 6), arm.q_min, arm.q_max)
+        q = np.clip(q_center + rng.uniform(-spread, spread, n_joints), arm.q_min, arm.q_max)
         P_C = transform_points(inverse_pose(arm.camera_pose(q)), markers_O)
         if not camera.visibility(P_C).all_visible:
             continue

@@ -1,9 +1,10 @@
 """Locate, load and check robot descriptions (the URDFs shipped in ``ibvs_youla.urdf``, example-robot-data's).
 
-:class:`~ibvs_youla.model.arm.Arm` accepts six revolute joints in series; these helpers turn
-every other case into a :class:`~ibvs_youla.exceptions.ModelLoadError` that says what was
-found. Physical validity (masses, inertias, axes, limits) is checked by
-:mod:`ibvs_youla.model.urdf_checks`: the file before Pinocchio parses it, the model after.
+:class:`~ibvs_youla.model.arm.Arm` reduces a model to the chain it controls
+(:mod:`ibvs_youla.model.chain`); these helpers find and parse the file, turning every failure
+into a :class:`~ibvs_youla.exceptions.ModelLoadError` that says what was found. Physical
+validity (masses, inertias, axes, limits) is checked by :mod:`ibvs_youla.model.urdf_checks`:
+the file before Pinocchio parses it, the model after.
 """
 
 from __future__ import annotations
@@ -12,16 +13,13 @@ import importlib.resources
 import sys
 import sysconfig
 from pathlib import Path
-from typing import Any
 
 import pinocchio as pin
 
 from ..exceptions import ModelLoadError
 from .urdf_checks import check_urdf_file
 
-__all__ = ["check_chain", "example_robot_data_urdf", "frame_id", "load_urdf_model", "urdf_path"]
-
-_N = 6  # joints of the arms this package handles
+__all__ = ["example_robot_data_urdf", "load_urdf_model", "urdf_path"]
 
 
 def urdf_path(name: str) -> Path:
@@ -60,30 +58,3 @@ def load_urdf_model(path: Path) -> pin.Model:
         return pin.buildModelFromUrdf(str(path))
     except (RuntimeError, ValueError) as exc:
         raise ModelLoadError(path, f"Pinocchio cannot parse URDF {str(path)!r}: {exc}") from None
-
-
-def frame_id(model: pin.Model, name: str, path: Any, role: str) -> int:
-    """Id of frame ``name``, which must be rigidly attached to the last (sixth) joint."""
-    if not model.existFrame(name):
-        names = [f.name for f in model.frames]
-        raise ModelLoadError(path, f"{role} frame {name!r} not in the model; frames are {names}")
-    fid = model.getFrameId(name)
-    if model.frames[fid].parentJoint != _N:
-        raise ModelLoadError(path, f"{role} frame {name!r} is not rigidly attached to the last joint")
-    return fid
-
-
-def check_chain(model: pin.Model, path: Any) -> None:
-    """Six revolute joints in series (their limits are checked by :func:`.urdf_checks.check_model`)."""
-    if model.nq != _N or model.nv != _N or model.njoints != _N + 1:
-        raise ModelLoadError(
-            path, f"expected 6 one-DOF joints, got nq={model.nq}, nv={model.nv}, {model.njoints - 1} joints"
-        )
-    for j in range(1, _N + 1):
-        joint = model.joints[j]
-        if joint.nq != 1 or not joint.shortname().startswith("JointModelR") or model.parents[j] != j - 1:
-            raise ModelLoadError(
-                path,
-                f"joint {model.names[j]!r} ({joint.shortname()}) is not a bounded "
-                "revolute joint of a serial chain",
-            )

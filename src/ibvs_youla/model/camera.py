@@ -21,13 +21,22 @@ from functools import cached_property
 
 import numpy as np
 
-from .._validation import as_array, flag, is_pair, non_negative, one_of, positive, real, text
+from .._validation import as_array, flag, integer, is_pair, non_negative, one_of, positive, real, text
 from ..exceptions import InvalidDisparityError, InvalidParameterError, PointBehindCameraError
 
-__all__ = ["PinholeCamera", "StereoCamera", "Visibility", "default_camera"]
+__all__ = [
+    "MIN_RESOLUTION_PX",
+    "PinholeCamera",
+    "StereoCamera",
+    "Visibility",
+    "check_camera_has_pixels",
+    "default_camera",
+    "pixel_centres_normalized",
+]
 
 MIN_ABS_DEPTH = 1e-9  # [m] no projection for |Z_C| below this (division by ~0), even for virtual points
 MAX_ABS_DEPTH = 1e9  # [m] a disparity whose depth |F b / d| would exceed this counts as zero
+MIN_RESOLUTION_PX = 8  # a camera renders images only with at least this many pixels a side
 
 # ZED resolution modes (ZED SDK names): (width [px], height [px], frame rates [Hz]); ERRATA 15.
 ZED_MODES: dict[str, tuple[int, int, tuple[int, ...]]] = {
@@ -356,6 +365,42 @@ class PinholeCamera(_Sensor):
             unbounded_view=True,
         )
 
+    @classmethod
+    def from_focal_px(
+        cls,
+        focal_px: float,
+        resolution: tuple[int, int],
+        *,
+        pixel_pitch: float = 1e-5,
+        depth_range: tuple[float, float] = (0.05, 25.0),
+        frame_rate: float = 30.0,
+        name: str = "pinhole",
+    ) -> PinholeCamera:
+        """A camera given in pixels: focal length ``focal_px`` [px], ``resolution`` (width, height) [px].
+
+        The principal point is the sensor's centre; ``pixel_pitch`` [m] only sets the unit of the
+        features (metres on the sensor, F = focal_px pixel_pitch). ViSP's photometric example
+        (``vpCameraParameters(870, 870, 160, 120)``, 320 x 240) is ``from_focal_px(870, (320, 240))``;
+        the camera of the textured plane, ``from_focal_px(150, (120, 90))``, sees 44 x 33 deg.
+
+        Raises:
+            InvalidParameterError: a focal length or pitch <= 0, a resolution that is not two
+                integers >= 1.
+        """
+        if not is_pair(resolution):
+            raise InvalidParameterError("resolution", resolution, "(width, height): two integers >= 1 [px]")
+        width, height = (integer(n, "resolution", low=1, unit="px") for n in resolution)
+        pitch = positive(pixel_pitch, "pixel_pitch", unit="m")
+        return cls(
+            focal_length=positive(focal_px, "focal_px", unit="px") * pitch,
+            sensor_width=width * pitch,
+            sensor_height=height * pitch,
+            pixel_pitch=pitch,
+            depth_range=depth_range,
+            frame_rate=frame_rate,
+            name=name,
+        )
+
     def back_project(self, features: object, Z: object, allow_behind: bool = False) -> np.ndarray:
         """Points (n, 3) [m] from rows ``[u, v]`` [m], depths Z (n,) or scalar [m]: X = u Z / F, Y = v Z / F.
 
@@ -369,7 +414,38 @@ class PinholeCamera(_Sensor):
         return np.column_stack((p * (Z / self.focal_length)[:, None], Z))
 
 
+def check_camera_has_pixels(camera: object) -> StereoCamera | PinholeCamera:
+    """The camera, if it has a pixel grid to render on; else InvalidParameterError.
+
+    A camera without a bounded view (``PinholeCamera.normalized()``) has only a nominal pixel
+    pitch, and one with fewer than MIN_RESOLUTION_PX pixels a side has too few to draw on.
+    """
+    if not isinstance(camera, (StereoCamera, PinholeCamera)):
+        raise InvalidParameterError("camera", type(camera).__name__, "a StereoCamera or a PinholeCamera")
+    width, height = camera.resolution
+    if camera.unbounded_view or min(width, height) < MIN_RESOLUTION_PX:
+        raise InvalidParameterError(
+            "camera",
+            f"{camera.name!r} ({'no bounded view, ' if camera.unbounded_view else ''}{width} x {height} px)",
+            f"a camera with a sensor of at least {MIN_RESOLUTION_PX} x {MIN_RESOLUTION_PX} pixels to render "
+            "images on (e.g. StereoCamera.zed2(); PinholeCamera.normalized() has no pixels)",
+        )
+    return camera
+
+
 # ---------------------------------------------------------------------- kernels (no input checks)
+def pixel_centres_normalized(camera: StereoCamera | PinholeCamera) -> tuple[np.ndarray, np.ndarray]:
+    """Normalized coordinates (x, y) of every pixel centre, each (height, width): K^-1 (u + 1/2, v + 1/2, 1).
+
+    Pixel (row i, column j) covers [j, j + 1) x [i, i + 1) in pixel coordinates (module docstring),
+    so its centre is (j + 1/2, i + 1/2); K is the intrinsic matrix of Eq. (6), skew included.
+    """
+    width, height = camera.resolution
+    K_inv = np.linalg.inv(camera.intrinsic_matrix())
+    u, v = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
+    return K_inv[0, 0] * u + K_inv[0, 1] * v + K_inv[0, 2], K_inv[1, 1] * v + K_inv[1, 2]
+
+
 def project_points(camera: StereoCamera | PinholeCamera, P_C: np.ndarray, allow_behind: bool) -> np.ndarray:
     """Features of points, point-major ((k + 1) n,) [m on the sensor]: Eq. (9)-(11), ERRATA 12.
 

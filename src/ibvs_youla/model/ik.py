@@ -93,6 +93,7 @@ def select_branches(
     *,
     tol: float = 1e-9,
     duplicate: float = 1e-6,
+    periodic: np.ndarray | None = None,
 ) -> np.ndarray:
     """Bring solutions into the joint limits and sort them by distance to ``q_near``.
 
@@ -101,9 +102,14 @@ def select_branches(
     has no such equivalent are dropped, as are rows within ``duplicate`` [rad] of an
     earlier one modulo 2*pi (ties at exactly pi from ``q_near`` would otherwise give two
     rows for one branch). Rows are sorted by Euclidean distance to ``q_near``.
+
+    ``periodic`` (bool (n,), default all True) marks the joints whose coordinate is an angle;
+    a prismatic joint's position is taken as it is (checked against its limits, not wrapped).
     """
     if branches.shape[0] == 0:
         return branches
+    if periodic is not None and not periodic.all():
+        return _select_mixed(branches, q_min, q_max, q_near, tol, duplicate, periodic)
     anchor = np.clip(q_near, q_min, q_max)
     base = anchor + wrap_angles(branches - anchor)  # (k, 6), nearest equivalent to the anchor
     cand = base[..., None] + math.tau * np.arange(-2, 3)  # (k, 6, 5)
@@ -117,6 +123,41 @@ def select_branches(
     if q.shape[0] < 2:
         return q
     wrapped = wrap_angles(q[:, None, :] - q[None, :, :])  # (k, k, 6) pairwise differences modulo 2 pi
+    near = (np.abs(wrapped).max(axis=-1) <= duplicate).tolist()
+    keep: list[int] = []
+    for i, row in enumerate(near):
+        if not any(row[j] for j in keep):
+            keep.append(i)
+    return q[keep]
+
+
+def _select_mixed(
+    branches: np.ndarray,
+    q_min: np.ndarray,
+    q_max: np.ndarray,
+    q_near: np.ndarray,
+    tol: float,
+    duplicate: float,
+    periodic: np.ndarray,
+) -> np.ndarray:
+    """`select_branches` for a chain with prismatic joints: only the periodic joints are wrapped."""
+    anchor = np.clip(q_near, q_min, q_max)
+    base = np.where(periodic, anchor + wrap_angles(branches - anchor), branches)  # (k, n)
+    shifts = np.where(
+        periodic[:, None], math.tau * np.arange(-2, 3), np.array([0.0, *[np.nan] * 4])
+    )  # (n, 5)
+    cand = base[..., None] + shifts  # (k, n, 5); NaN candidates are never inside
+    inside = (cand >= (q_min - tol)[:, None]) & (cand <= (q_max + tol)[:, None])
+    dist = np.where(inside, np.abs(cand - q_near[:, None]), np.inf).reshape(-1, 5)
+    pick = np.argmin(dist, axis=-1)
+    flat = np.arange(pick.size)
+    ok = np.isfinite(dist[flat, pick]).reshape(branches.shape).all(axis=1)
+    q = np.clip(cand.reshape(-1, 5)[flat, pick].reshape(branches.shape)[ok], q_min, q_max)
+    q = q[np.argsort(np.linalg.norm(q - q_near, axis=1), kind="stable")]
+    if q.shape[0] < 2:
+        return q
+    diff = q[:, None, :] - q[None, :, :]
+    wrapped = np.where(periodic, wrap_angles(diff), diff)
     near = (np.abs(wrapped).max(axis=-1) <= duplicate).tolist()
     keep: list[int] = []
     for i, row in enumerate(near):

@@ -18,7 +18,7 @@ import numpy as np
 from .._jit import jit
 from ._ik_closed_form import SINGULAR_TOL, SphericalWristParameters
 
-__all__ = ["ik_parameter_array", "nearest_branch_compiled", "poses_match"]
+__all__ = ["ik_parameter_array", "nearest_branch_compiled", "nearest_row_compiled", "poses_match"]
 
 _PI, _TAU = math.pi, math.tau
 
@@ -199,6 +199,35 @@ def nearest_branch_compiled(
                     best[:] = cand
                     best_d, best_i, best_j, best_k = d, i, j, k
                     found = True
+    return found, best
+
+
+@jit
+def nearest_row_compiled(
+    rows: np.ndarray, count: int, q_min: np.ndarray, q_max: np.ndarray, q_near: np.ndarray, tol: float
+) -> tuple[bool, np.ndarray]:
+    """(found, q): ``select_branches(rows[:count], q_min, q_max, q_near, tol=tol)[0]`` for revolute joints.
+
+    Each joint of each row moved to its 2*pi-equivalent within limits nearest ``q_near`` (the
+    rule of :func:`_nearest_equivalent`), rows with a joint lacking one dropped, the nearest in
+    Euclidean distance kept, the first on a tie (a stable sort's first row). Unvalidated: ``rows``
+    (k, n) [rad] with k >= count, joint arrays (n,).
+    """
+    n = q_near.shape[0]
+    best = np.zeros(n)
+    cand = np.empty(n)
+    best_d, found = math.inf, False
+    for r in range(count):
+        d = 0.0
+        ok = True
+        for k in range(n):
+            ok, cand[k] = _nearest_equivalent(rows[r, k], q_min[k], q_max[k], tol, q_near[k])
+            if not ok:
+                break
+            d += (cand[k] - q_near[k]) * (cand[k] - q_near[k])
+        if ok and d < best_d:
+            best[:] = cand
+            best_d, found = d, True
     return found, best
 
 

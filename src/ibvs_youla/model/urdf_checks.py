@@ -281,7 +281,11 @@ def _check_limits(model: pin.Model, j: int, path: Any, joint: str) -> None:
             path, f"{joint} position limits", received, "finite position limits with lower < upper"
         )
     i, n = model.idx_vs[j], model.nvs[j]
-    for label, values in (("velocity", model.velocityLimit), ("effort", model.effortLimit)):
+    for label, values, keyword in (
+        ("velocity", model.velocityLimit, "dq_max"),
+        ("effort", model.effortLimit, "tau_max"),
+    ):
         values = values[i : i + n]
         if not (np.all(np.isfinite(values)) and np.all(values > 0.0)):
-            raise _invalid(path, f"{joint} {label} limit", f"{values.tolist()}", "finite and > 0")
+            valid = f"finite and > 0 (the URDF's <limit {label}>, or the arm's {keyword}=)"
+            raise _invalid(path, f"{joint} {label} limit", f"{values.tolist()}", valid)

@@ -6,9 +6,11 @@ reading and the controller's *own* arm model (never the true one):
     camera twist [v; w] --(J_C^+)--> joint velocity --(integrate)--> joint position
     reference --(the paper's inner loop, Eq. (33)-(46))--> joint torque
 
-* :class:`TwistToJointVelocity`: dq_ref = J_C(q)^+ [v; w], J_C the LOCAL camera Jacobian of
-  the controller's arm at the encoder reading, its pseudo-inverse damped near
-  singularities (:class:`~ibvs_youla.control.singular_values.SingularValuePolicy`).
+* :class:`TwistToJointVelocity`: dq_ref = J_C(q)^+ [v; w], J_C the LOCAL camera Jacobian (6, n)
+  of the controller's arm at the encoder reading, its pseudo-inverse damped near
+  singularities (:class:`~ibvs_youla.control.singular_values.SingularValuePolicy`); on a
+  redundant arm, plus a secondary task in the null space of J_C when one is set
+  (:mod:`ibvs_youla.control.redundancy`).
 * :class:`VelocityToPosition`: q_ref[k] = q_ref[k-1] + dt dq_ref[k], from q_ref = q(0).
 * :class:`InnerLoopActuator`: v = G_C(z)[q_ref - q] (Eq. (41)-(46), ERRATA 8; Tustin) and the
   feedback linearization tau = M(q) v + h(q, dq) (Eq. (33)) with the controller's arm model,
@@ -32,6 +34,7 @@ from .._jit import jit, jit_available
 from .._validation import as_array
 from ..control.discrete import filter_step_difference
 from ..control.inner import InnerLoopDesign
+from ..control.redundancy import JointLimitAvoidance, joint_limit_avoidance
 from ..control.singular_values import SingularValuePolicy
 from ..control.svd_kernels import pseudo_inverse_apply, pseudo_inverse_integrate
 from ..controllers.base import CommandType, JointReading
@@ -56,20 +59,34 @@ _CHAIN = (
 
 
 class TwistToJointVelocity:
-    """Camera twist -> joint velocity through the controller's arm: dq_ref = J_C(q)^+ [v; w].
+    """Camera twist -> joint velocity through the controller's arm: dq_ref = J_C(q)^+ [v; w] (+ N dq2).
+
+    J_C is (6, n); on a redundant arm (n > 6) J_C^+ [v; w] is the least-norm joint velocity, and a
+    secondary task (:mod:`ibvs_youla.control.redundancy`, off by default) adds a velocity in the
+    null space of J_C: ``dq_ref = dq1 + dq2``, dq1 = J_C^+ [v; w], dq2 from the encoders, dq1 and
+    N = I - J_C^+ J_C (the pseudo-inverse of the policy), which leaves the camera twist unchanged.
 
     Args:
-        arm: The controller's arm model (``camera_jacobian``).
+        arm: The controller's arm model (``camera_jacobian``, limits for the secondary task).
         policy: Pseudo-inverse of J_C near singularities (default: damped, lambda = 1e-3 sigma_max).
+        secondary_task: A :class:`~ibvs_youla.control.redundancy.JointLimitAvoidance`, or None.
     """
 
     output_type = CommandType.JOINT_VELOCITY
 
-    def __init__(self, arm: Any, policy: SingularValuePolicy | None = None) -> None:
+    def __init__(
+        self,
+        arm: Any,
+        policy: SingularValuePolicy | None = None,
+        secondary_task: JointLimitAvoidance | None = None,
+    ) -> None:
         self._arm = arm
         self._policy = SingularValuePolicy() if policy is None else policy
         self._damped, self._threshold = self._policy.kind == "damped", self._policy.threshold
         self._integrator: VelocityToPosition | None = None
+        self._secondary = secondary_task
+        if secondary_task is not None:
+            self._q_min, self._q_max = np.asarray(arm.q_min, dtype=float), np.asarray(arm.q_max, dtype=float)
 
     @property
     def arm(self) -> Any:
@@ -80,6 +97,11 @@ class TwistToJointVelocity:
     def policy(self) -> SingularValuePolicy:
         """The pseudo-inverse of J_C near singularities."""
         return self._policy
+
+    @property
+    def secondary_task(self) -> JointLimitAvoidance | None:
+        """The null-space task of a redundant arm, or None."""
+        return self._secondary
 
     def integrate_into(self, integrator: VelocityToPosition) -> None:
         """Integrate each dq_ref for ``integrator`` (the next link) in the same compiled call.
@@ -99,6 +121,11 @@ class TwistToJointVelocity:
         else (or when the SVD fails) from the reference ``policy.pseudo_inverse(J_C) @ twist``.
         """
         J_C = self._arm.camera_jacobian_at(reading.q)
+        if self._secondary is not None:
+            P = self._policy.pseudo_inverse(J_C)
+            dq1 = P @ twist
+            N = np.eye(J_C.shape[1]) - P @ J_C
+            return dq1 + joint_limit_avoidance(self._secondary, reading.q, dq1, self._q_min, self._q_max, N)
         if getattr(twist, "shape", None) == (6,) and twist.dtype is _FLOAT64:
             n, integrator = J_C.shape[1], self._integrator
             dq_ref = np.empty(n)
@@ -223,6 +250,7 @@ def actuation_chain(
     q_start: np.ndarray | None = None,
     tau_in: float = 0.01,
     dt: float = 1e-3,
+    secondary_task: JointLimitAvoidance | None = None,
 ) -> list[Any]:
     """Adapters from ``command_type`` to the first type along the chain that ``plant`` accepts.
 
@@ -233,6 +261,7 @@ def actuation_chain(
         q_start: Encoder reading at the start (the velocity integrator's initial value).
         tau_in: Inner-loop time constant [s].
         dt: Tick period [s].
+        secondary_task: The null-space task of a redundant arm (:class:`TwistToJointVelocity`).
 
     Returns:
         The adapters to apply in order (empty when the plant takes the command as it is).
@@ -250,7 +279,7 @@ def actuation_chain(
         if arm is None:
             break
         if nxt is CommandType.JOINT_VELOCITY:
-            chain.append(TwistToJointVelocity(arm))
+            chain.append(TwistToJointVelocity(arm, secondary_task=secondary_task))
         elif nxt is CommandType.JOINT_POSITION:
             chain.append(VelocityToPosition(q_start, dt))
         else:

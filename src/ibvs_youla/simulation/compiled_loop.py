@@ -170,6 +170,7 @@ class CompiledLoop:
             type(plant) is KinematicArmPlant
             and len(chain) == 1
             and type(chain[0]) is TwistToJointVelocity
+            and chain[0].secondary_task is None  # the null-space task: the plug-in loop
             and plant.input_type is CommandType.JOINT_VELOCITY
         ):
             expected = _ARM_SIGNALS

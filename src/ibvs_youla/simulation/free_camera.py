@@ -71,7 +71,12 @@ class FreeCameraPlant:
         return ()
 
     def apply(self, command: np.ndarray, dt: float) -> None:
-        """T_O_C <- T_O_C exp(dt [xi]^) for the body twist ``command`` = [v; w] (6,) held over dt."""
+        """T_O_C <- T_O_C exp(dt [xi]^) for the body twist ``command`` = [v; w] (6,) held over dt.
+
+        Raises:
+            SimulationDivergedError: a non-finite twist, or a finite one so large that the pose
+                it leads to is not finite (the pose is left at the start of the step).
+        """
         if not dt > 0.0:
             raise InvalidParameterError("dt", dt, "a control period > 0 s")
         xi = np.asarray(command, dtype=float)
@@ -86,5 +91,16 @@ class FreeCameraPlant:
                 f"simulation diverged at t = {self.t:.6g} s: camera twist {xi.tolist()} is not a finite "
                 "(6,) vector [v; w] [m/s, rad/s]",
             )
-        self._T = self._T @ exp_twist(xi * dt)
+        T = self._T @ exp_twist(xi * dt)
+        flat = T.ravel()
+        if not math.isfinite(flat.dot(flat)) and not np.isfinite(flat).all():  # a huge finite twist
+            raise SimulationDivergedError(
+                self.t + dt,
+                "T_O_C",
+                T,
+                "a finite pose",
+                f"simulation diverged at t = {self.t + dt:.6g} s: the camera pose is not finite after "
+                f"the twist {xi.tolist()} [m/s, rad/s] held over {dt:g} s",
+            )
+        self._T = T
         self.t += dt

@@ -19,8 +19,11 @@ from the continuous T_in by about 3.7 % of the step at 1 kHz (pinned in
 plants even without model error.
 
 Like the dynamic arm it has encoders offset by an unseen joint offset d (ERRATA 14):
-``q_true = q + d``, and the camera moves with q_true. Joint limits are not enforced; a
-non-finite command or state raises SimulationDivergedError.
+``q_true = q + d``, and the camera moves with q_true. Joint limits are not enforced. A
+non-finite command or state raises SimulationDivergedError, and so does a joint speed beyond
+the dynamic arm's safety net, ``|dq_i| > speed_factor * dq_max_i`` (:class:`~.plant.DivergenceBounds`,
+default 1000x the speed limit): a finite but absurd command (1e300 rad/s) is a diverged run,
+not a complete one with meaningless poses.
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ from scipy.linalg import expm
 from .._validation import as_array, positive
 from ..controllers.base import CommandType, JointReading
 from ..exceptions import InvalidParameterError, SimulationDivergedError
+from .plant import DivergenceBounds
 
 __all__ = ["KinematicArmPlant", "inner_closed_loop_matrices"]
 
@@ -68,13 +72,22 @@ class KinematicArmPlant:
         q_encoder: Initial encoder reading (n,) [rad]; the arm starts at rest.
         tau_in: Time constant of the inner loop it idealizes [s] (Eq. (41), (63)).
         dt: Tick period [s] (needed for the exact discretization).
+        speed_factor: Divergence when ``|dq_i| > speed_factor * dq_max_i``; default that of
+            :class:`~.plant.DivergenceBounds`.
     """
 
     name = "kinematic"
     accepts = (CommandType.JOINT_VELOCITY, CommandType.JOINT_POSITION)
 
     def __init__(
-        self, arm: Any, joint_offset: Any = None, *, q_encoder: Any, tau_in: float = 0.01, dt: float = 1e-3
+        self,
+        arm: Any,
+        joint_offset: Any = None,
+        *,
+        q_encoder: Any,
+        tau_in: float = 0.01,
+        dt: float = 1e-3,
+        speed_factor: float = DivergenceBounds.speed_factor,
     ) -> None:
         if not (hasattr(arm, "camera_fk") and hasattr(arm, "nq")):
             raise InvalidParameterError("arm", type(arm).__name__, "an Arm (its kinematics move the camera)")
@@ -85,6 +98,9 @@ class KinematicArmPlant:
         self.joint_offset.setflags(write=False)
         self._Ad, self._Bd, self._C, self._CA = inner_closed_loop_matrices(tau_in, dt)
         self.dt = positive(dt, "dt", unit="s")
+        self._speed_factor = positive(speed_factor, "speed_factor")
+        self._dq_bound = self._speed_factor * np.asarray(arm.dq_max, dtype=float)
+        self._fast_speed_sq = float(np.min(self._dq_bound)) ** 2  # below it, every joint is within its bound
         q0 = as_array(q_encoder, "q_encoder", (n,))
         # At rest with output q0: x = q0 / C[0] * e1 (equilibrium of the controllable form)
         self._x: np.ndarray | None = np.outer(np.array([1.0, 0.0, 0.0]) * tau_in**3, q0)
@@ -134,18 +150,46 @@ class KinematicArmPlant:
                 f"simulation diverged at t = {self.t:.6g} s: non-finite "
                 f"{command_type.value} command {np.asarray(command).tolist()}",
             )
+        x = self._x
         if command_type is CommandType.JOINT_VELOCITY:
-            self._q = self._q + command * dt
-            self._dq = np.array(command, dtype=float)
-            self._x = None  # the position loop's state: at rest at the new position, made when needed
+            q = self._q + command * dt
+            dq = np.array(command, dtype=float)
+            speed_sq = square
+            x = None  # the position loop's state: at rest at the new position, made when needed
         else:
             if abs(dt - self.dt) > 1e-12 * self.dt:
                 raise InvalidParameterError("dt", dt, f"the period the plant was built for, {self.dt:g} s")
-            if self._x is None:  # after joint velocities: the position loop at rest where the arm is
-                self._x = np.outer(
-                    np.array([1.0, 0.0, 0.0]) * (1.0 / self._C[0]), self._q - self.joint_offset
-                )
-            self._x = self._Ad @ self._x + np.outer(self._Bd, command)
-            self._q = self._C @ self._x + self.joint_offset
-            self._dq = self._CA @ self._x
+            if x is None:  # after joint velocities: the position loop at rest where the arm is
+                x = np.outer(np.array([1.0, 0.0, 0.0]) * (1.0 / self._C[0]), self._q - self.joint_offset)
+            x = self._Ad @ x + np.outer(self._Bd, command)
+            q = self._C @ x + self.joint_offset
+            dq = self._CA @ x
+            speed_sq = float(dq.dot(dq))
+        if not (speed_sq <= self._fast_speed_sq and math.isfinite(q.dot(q))):  # cheap; NaN fails too
+            self._check(self.t + dt, q, dq)
+        self._x, self._q, self._dq = x, q, dq
         self.t += dt
+
+    def _check(self, t: float, q: np.ndarray, dq: np.ndarray) -> None:
+        """Raise SimulationDivergedError if q or dq is not finite or a speed is beyond its bound."""
+        for name, value in (("q", q), ("dq", dq)):
+            if not np.all(np.isfinite(value)):
+                bad = [int(j) + 1 for j in np.flatnonzero(~np.isfinite(value))]
+                raise SimulationDivergedError(
+                    t,
+                    name,
+                    np.array(value),
+                    "finite values",
+                    f"simulation diverged at t = {t:.6g} s: {name}: non-finite {name} at joints {bad}",
+                )
+        ratio = np.abs(dq) / self._dq_bound
+        j = int(np.argmax(ratio))
+        if ratio[j] > 1.0:
+            raise SimulationDivergedError(
+                t,
+                "dq",
+                np.array(dq),
+                self._dq_bound,
+                f"simulation diverged at t = {t:.6g} s: dq: |dq_{j + 1}| = {abs(dq[j]):.4g} rad/s > "
+                f"{self._dq_bound[j]:.4g} rad/s ({self._speed_factor:g} x the speed limit)",
+            )

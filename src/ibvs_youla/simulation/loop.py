@@ -14,14 +14,18 @@ controller updates on it. Then, every tick, in this order:
 A run ends early, with a status in the result rather than an exception, when the true
 camera loses a marker (``"markers_lost"``: behind the camera, seen by the sensor) or the
 controller's own models fail on a valid image (``"estimate_failed"``: e.g. no IK branch
-within the joint limits reaches the pose seen, Eq. (62), a PnP finds no pose, or a believed
-marker lies behind the camera). A diverging plant raises
+within the joint limits reaches the pose seen, Eq. (62), a PnP finds no pose, a believed
+marker lies behind the camera, or an image feature of the law has no value there). A diverging plant raises
 :class:`~ibvs_youla.exceptions.SimulationDivergedError`, and Ctrl-C a ``KeyboardInterrupt``,
 each with the samples recorded so far in ``error.partial`` (status ``"diverged"``,
-``"interrupted"``). A controller method that raises, or a command that is not an array of the
-command type's shape (checked cheaply every tick; the first one must also be finite), raises
+``"interrupted"``). A controller method that raises, a command that is not an array of the
+command type's shape (checked cheaply every tick; the first one must also be finite), or signals
+that are not those it declared (:mod:`.controller_checks`) raise
 :class:`~ibvs_youla.exceptions.ControllerError` with ``error.partial`` (status
-``"controller_failed"``); later commands' values are left to the plant's divergence test.
+``"controller_failed"``); later commands' values are left to the plant's divergence test (a
+finite but huge one too: each plant diverges on a state it cannot hold). The controller is given
+its own copies of each frame's and reading's arrays: what it writes into them changes neither
+the recorded measurements nor the plant.
 
 The loop times its phases (wall clock, summed over the run) and stores them in
 ``metadata["phase_seconds"]``: ``frame`` (the encoder reading, the true camera pose, the
@@ -37,17 +41,19 @@ from typing import Any
 
 import numpy as np
 
-from ..controllers.base import CommandType, Controller
+from ..controllers.base import CameraFrame, CommandType, Controller, JointReading
 from ..exceptions import (
     ControllerError,
+    FeatureSingularityError,
     InvalidCommandError,
     InvalidDisparityError,
-    InvalidParameterError,
     PointBehindCameraError,
     PoseEstimationError,
     SimulationDivergedError,
     UnreachablePoseError,
 )
+from .controller_checks import checked_signals, controller_name, failed
+from .progress import progress_bar
 from .recorder import ResultRecorder
 from .results import SimulationResult
 
@@ -71,6 +77,10 @@ class ServoLoop:
         command_signals: Names under which each command along the chain is recorded. The
             recorder's ``signal_names`` are the plant's, these, then the controller's
             declared signals (the keys of its first ``signals()``), in that order.
+        command_type: The controller's command type (parsed once: the controller may give
+            its string value).
+        declared_shapes: Name -> shape of each signal the controller declared (its first
+            ``signals()``).
     """
 
     controller: Controller
@@ -83,14 +93,14 @@ class ServoLoop:
     record_every: int
     recorder: ResultRecorder
     command_signals: tuple[str, ...]
+    command_type: CommandType
+    declared_shapes: dict[str, tuple[int, ...]]
 
     def run(self, progress: bool = False, label: str = "simulate") -> SimulationResult:
         """Run to the end or to an early stop; return the result with its status."""
         bar = None
         if progress:
-            from tqdm import tqdm
-
-            bar = tqdm(total=self.n_ticks, unit="tick", desc=label, leave=False)
+            bar = progress_bar(self.n_ticks, label)
         self._reason = ""
         self.phase_seconds: dict[str, float] = {}
         try:
@@ -124,29 +134,24 @@ class ServoLoop:
 
     def _checked_command(self, command: Any, t: float, finite: bool) -> np.ndarray:
         """A command that is not a float array of the command type's shape (the first: finite too)."""
-        command_type = self.controller.command_type
+        command_type = self.command_type
         n = 6 if command_type is CommandType.CAMERA_TWIST else getattr(self.plant, "n_joints", 6)
         arr = np.asarray(command, dtype=float) if isinstance(command, (np.ndarray, list, tuple)) else None
         if arr is None or arr.shape != (n,) or (finite and not np.all(np.isfinite(arr))):
             raise InvalidCommandError(
-                type(getattr(self.controller, "controller", self.controller)).__name__,
+                controller_name(self.controller),
                 t,
                 repr(command) if arr is None else f"an array of shape {arr.shape} {arr.tolist()}",
                 f"a finite ({n},) array: a {command_type.value} [{command_type.unit}]",
             )
         return arr
 
-    def _failed(self, method: str, t: float, err: BaseException) -> ControllerError:
-        """The typed error for a controller method that raised ``err`` at time ``t``."""
-        name = type(getattr(self.controller, "controller", self.controller)).__name__  # a wrapper's inner one
-        return ControllerError(name, method, t, f"raised {type(err).__name__}: {err}")
-
     def _ticks(self, bar: Any) -> str:
         controller, sensor, plant, chain, dt = self.controller, self.sensor, self.plant, self.chain, self.dt
         record, record_frame = self.recorder.record, self.recorder.record_frame
         n_ticks, every, record_every = self.n_ticks, self.ticks_per_frame, self.record_every
-        n_declared = len(self.recorder.signal_names) - len(plant.signal_names) - len(self.command_signals)
-        declared_names = self.recorder.signal_names[-n_declared:] if n_declared else ()
+        declared_shapes = self.declared_shapes
+        declared_names = tuple(declared_shapes)
         clock = time.perf_counter
         frame = None
         shape: tuple[int, ...] = ()  # the command's, set by the first tick's check
@@ -156,6 +161,7 @@ class ServoLoop:
             for k in range(n_ticks + 1):
                 t = k * dt
                 reading = plant.reading()
+                given = reading if reading is None else _own_reading(reading)  # the controller's copy
                 is_frame = k % every == 0
                 if is_frame:
                     T_O_C = plant.camera_pose()
@@ -166,26 +172,27 @@ class ServoLoop:
                         return "markers_lost"
                     tic = clock()
                     try:
-                        controller.update(frame, reading)
+                        controller.update(_own_frame(frame), given)
                     except (
                         PointBehindCameraError,
                         InvalidDisparityError,
                         UnreachablePoseError,
                         PoseEstimationError,
+                        FeatureSingularityError,
                     ) as err:
                         # the controller's own models failed on a valid image (e.g. Eq. (62) has no
                         # IK branch within the joint limits, or a belief puts a marker behind the camera)
                         self._reason = f"t = {t:.6g} s: {type(controller).__name__}'s estimate failed: {err}"
                         return "estimate_failed"
                     except Exception as err:  # a user's bug: typed, named, with the samples so far
-                        raise self._failed("update", t, err) from err
+                        raise failed(controller, "update", t, err) from err
                     elapsed = clock() - tic
                     record_frame(t, frame.features, frame.visible, elapsed)
                 t_frame = clock()
                 try:
-                    command = controller.command(reading)
+                    command = controller.command(given)
                 except Exception as err:
-                    raise self._failed("command", t, err) from err
+                    raise failed(controller, "command", t, err) from err
                 if k == 0 or type(command) is not np.ndarray or command.shape != shape:  # cheap, every tick
                     command = self._checked_command(command, t, k == 0)
                     shape = command.shape
@@ -197,16 +204,16 @@ class ServoLoop:
                     try:
                         declared = controller.signals()
                     except Exception as err:
-                        raise self._failed("signals", t, err) from err
-                    if tuple(declared) != declared_names:  # same names, same order as declared first
-                        raise InvalidParameterError(
-                            "controller.signals()",
-                            sorted(declared),
-                            f"the names it declared first, {declared_names}",
-                        )
+                        raise failed(controller, "signals", t, err) from err
+                    if type(declared) is not dict or tuple(declared) != declared_names:  # cheap, every sample
+                        declared = checked_signals(controller, declared, t, declared_shapes)
                     pose = T_O_C if is_frame else plant.camera_pose()
                     values = (*plant.signal_values(reading), *commands, *declared.values())
-                    record(t, pose, frame.features, frame.visible, values)  # type: ignore[union-attr]
+                    try:
+                        record(t, pose, frame.features, frame.visible, values)  # type: ignore[union-attr]
+                    except (ValueError, TypeError):  # the recorder names the signal; say whose it is
+                        checked_signals(controller, declared, t, declared_shapes)
+                        raise
                 t_control = clock()
                 if k < n_ticks:
                     plant.apply(command, dt)
@@ -220,3 +227,21 @@ class ServoLoop:
         finally:  # also when a run stops early or diverges
             self.phase_seconds = {"frame": frame_s, "control": control_s, "plant": plant_s}
         return "complete"
+
+
+def _own_frame(frame: CameraFrame) -> CameraFrame:
+    """``frame`` with copies of its arrays: the recorder keeps the sensor's, whatever a controller writes.
+
+    Every field is copied (a field left out would reach the controller as ``None``: a depth sensor's
+    depths, a rendered image).
+    """
+    return CameraFrame(frame.t, *(None if field is None else np.array(field) for field in frame[1:]))
+
+
+def _own_reading(reading: JointReading) -> JointReading:
+    """``reading`` with copies of its arrays: the plant, the actuation chain and the recorder keep theirs.
+
+    Copies, not read-only views: a read-only array is another type to the compiled kernels that
+    controllers call with it (and a tuple mixing both is not iterable in them).
+    """
+    return JointReading(reading.t, reading.q.copy(), reading.dq.copy())

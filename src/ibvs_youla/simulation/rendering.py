@@ -33,7 +33,7 @@ import numpy as np
 
 from .._validation import as_array, non_negative, positive
 from ..exceptions import InvalidParameterError
-from ..model.camera import PinholeCamera, StereoCamera
+from ..model.camera import PinholeCamera, StereoCamera, check_camera_has_pixels
 from ..model.disc_image import DiscImage, disc_images
 
 __all__ = [
@@ -41,13 +41,13 @@ __all__ = [
     "ImagingSettings",
     "RenderedFrame",
     "check_camera_has_pixels",
+    "finish_image",
     "render",
     "render_unchecked",
 ]
 
 EDGE_BAND_PX = 1.5  # supersample pixels whose centre is within this distance of an ellipse's edge [px]
 MIN_CURVATURE_RADIUS_PX = 4.0  # below this, every pixel of the ellipse's box is supersampled [px]
-MIN_RESOLUTION_PX = 8  # a camera renders only with at least this many pixels a side
 
 
 @dataclass(frozen=True)
@@ -203,25 +203,6 @@ class RenderedFrame:
     drawn: np.ndarray
 
 
-def check_camera_has_pixels(camera: Any) -> StereoCamera | PinholeCamera:
-    """The camera, if it has a pixel grid to render on; else InvalidParameterError.
-
-    A camera without a bounded view (``PinholeCamera.normalized()``) has only a nominal pixel
-    pitch, and one with fewer than MIN_RESOLUTION_PX pixels a side has too few to draw on.
-    """
-    if not isinstance(camera, (StereoCamera, PinholeCamera)):
-        raise InvalidParameterError("camera", type(camera).__name__, "a StereoCamera or a PinholeCamera")
-    width, height = camera.resolution
-    if camera.unbounded_view or min(width, height) < MIN_RESOLUTION_PX:
-        raise InvalidParameterError(
-            "camera",
-            f"{camera.name!r} ({'no bounded view, ' if camera.unbounded_view else ''}{width} x {height} px)",
-            f"a camera with a sensor of at least {MIN_RESOLUTION_PX} x {MIN_RESOLUTION_PX} pixels to render "
-            "images on (e.g. StereoCamera.zed2(); PinholeCamera.normalized() has no pixels)",
-        )
-    return camera
-
-
 def render(
     camera: StereoCamera | PinholeCamera,
     markers: DiscMarkers,
@@ -277,24 +258,35 @@ def render_unchecked(
         canvas = np.full((height, width), markers.background_grey, dtype=np.float32)
         for j in far_to_near:
             drawn[lens, j] = _draw(canvas, discs, holes, lens, j, markers.marker_grey, imaging.supersampling)
-        if imaging.blur_sigma_px > 0.0:
-            canvas = cv2.GaussianBlur(
-                canvas,
-                (0, 0),
-                imaging.blur_sigma_px,
-                sigmaY=imaging.blur_sigma_px,
-                borderType=cv2.BORDER_REPLICATE,
-            )
-        if imaging.noise_sigma_grey > 0.0:
-            # cv2.randn is ~5x faster than numpy's normals; its generator is OpenCV's per-thread
-            # one, seeded for every image from ``rng``, so the noise is reproducible from the seed
-            cv2.setRNGSeed(int(rng.integers(2**31)))
-            noise = np.empty(canvas.shape, dtype=np.float32)
-            cv2.randn(noise, 0.0, imaging.noise_sigma_grey)
-            canvas += noise
-        np.rint(canvas, out=canvas)
-        images.append(np.clip(canvas, 0.0, 255.0, out=canvas).astype(np.uint8))
+        images.append(finish_image(canvas, imaging, rng))
     return RenderedFrame(tuple(images), discs, holes, drawn)
+
+
+def finish_image(canvas: np.ndarray, imaging: ImagingSettings, rng: np.random.Generator | None) -> np.ndarray:
+    """What the camera makes of an exact image: blur, sensor noise, rounding to 8 bits (uint8).
+
+    ``canvas`` (height, width) float32 grey levels (it may be overwritten) is blurred
+    (``cv2.GaussianBlur``, sigma ``imaging.blur_sigma_px``, replicated border), given Gaussian
+    noise of ``imaging.noise_sigma_grey`` grey levels (``cv2.randn``, seeded for every image from
+    ``rng``, which may be None without noise), rounded and clipped to [0, 255].
+    """
+    if imaging.blur_sigma_px > 0.0:
+        canvas = cv2.GaussianBlur(
+            canvas,
+            (0, 0),
+            imaging.blur_sigma_px,
+            sigmaY=imaging.blur_sigma_px,
+            borderType=cv2.BORDER_REPLICATE,
+        )
+    if imaging.noise_sigma_grey > 0.0:
+        # cv2.randn is ~5x faster than numpy's normals; its generator is OpenCV's per-thread
+        # one, seeded for every image from ``rng``, so the noise is reproducible from the seed
+        cv2.setRNGSeed(int(rng.integers(2**31)))  # type: ignore[union-attr]
+        noise = np.empty(canvas.shape, dtype=np.float32)
+        cv2.randn(noise, 0.0, imaging.noise_sigma_grey)
+        canvas += noise
+    np.rint(canvas, out=canvas)
+    return np.clip(canvas, 0.0, 255.0, out=canvas).astype(np.uint8)
 
 
 def _draw(

@@ -24,7 +24,7 @@ from .._validation import as_array, as_pose
 from ..exceptions import DamagedFileError, IbvsYoulaError, InvalidArrayError, InvalidParameterError
 from ..files import atomic_write
 
-__all__ = ["STATUSES", "SimulationResult", "normalise_metadata", "software_versions"]
+__all__ = ["STATUSES", "SimulationResult", "check_loaded", "normalise_metadata", "software_versions"]
 
 FORMAT_VERSION = 2  # 1: fixed three-marker stereo schema with q_ff/q_fb fields (still loads)
 STATUSES = ("complete", "markers_lost", "estimate_failed", "diverged", "interrupted", "controller_failed")
@@ -237,8 +237,14 @@ class SimulationResult:
         return pose_error_mm_deg(self.camera_pose[-1], self.camera_pose_target)
 
     def _require_samples(self, what: str) -> None:
-        if len(self) == 0:
-            raise InvalidArrayError("SimulationResult", f"no samples (asked for {what})", ">= 1 sample")
+        if len(self) == 0:  # say why: a run stopped before its first sample (its status and error)
+            error = self.metadata.get("error")
+            why = f"the run ended with status {self.status!r} before its first sample" + (
+                f" ({error})" if error else ""
+            )
+            raise InvalidArrayError(
+                "SimulationResult", f"no samples (asked for {what}): {why}", ">= 1 sample"
+            )
 
     # ------------------------------------------------------------------ persistence
     def _arrays(self) -> dict[str, np.ndarray]:
@@ -279,8 +285,10 @@ class SimulationResult:
             DamagedFileError: (an :class:`InvalidParameterError`) the file is not a whole saved
                 result: a directory, empty, not a zip archive, truncated, corrupted (CRC or
                 decompression), a header that is not JSON or lacks ``metadata``, missing
-                arrays, arrays that do not fit together, or an unknown format version. The
-                message names the file and what is wrong.
+                arrays, arrays that do not fit together, or an unknown format version; or values
+                no run records (:func:`check_loaded`: non-finite or non-rigid camera poses, time
+                running backwards, visibility that is not boolean, an unknown status). The
+                message names the file, the field and what is wrong.
         """
         path = Path(path)
         if not path.exists() and path.with_name(path.name + ".npz").exists():
@@ -305,13 +313,25 @@ class SimulationResult:
         missing = [n for n in names if n not in arrays]
         if missing:
             raise DamagedFileError(path, f"missing the arrays {missing} (format {version})", _EXPECTED)
+        for name in ("visible", "frame_visible"):  # numpy reads any non-empty string as True
+            if name in arrays and arrays[name].dtype.kind != "b":
+                raise DamagedFileError(
+                    path, f"field {name!r} holds {arrays[name].dtype} values, not booleans", _EXPECTED
+                )
         try:
             if version == 1:
-                return cls._from_format_1(arrays, header["metadata"])
-            signals = {k[len(_SIGNAL_PREFIX) :]: v for k, v in arrays.items() if k.startswith(_SIGNAL_PREFIX)}
-            return cls(**{n: arrays[n] for n in names}, signals=signals, metadata=header["metadata"])
+                result = cls._from_format_1(arrays, header["metadata"])
+            else:
+                signals = {
+                    k[len(_SIGNAL_PREFIX) :]: v for k, v in arrays.items() if k.startswith(_SIGNAL_PREFIX)
+                }
+                result = cls(**{n: arrays[n] for n in names}, signals=signals, metadata=header["metadata"])
         except IbvsYoulaError as err:
             raise DamagedFileError(path, f"its arrays do not form a result ({err})", _EXPECTED) from None
+        problem = check_loaded(result)
+        if problem:
+            raise DamagedFileError(path, problem, _EXPECTED)
+        return result
 
     @classmethod
     def _from_format_1(cls, arrays: dict[str, np.ndarray], metadata: dict[str, Any]) -> SimulationResult:
@@ -327,6 +347,50 @@ class SimulationResult:
             update_time=arrays["update_time"],
             metadata={"plant": "dynamic", **metadata},
         )
+
+
+def check_loaded(result: SimulationResult) -> str:
+    """What no run records in ``result`` ("" when nothing): the checks of a file read back.
+
+    A run records finite rigid camera poses (the plants diverge before holding any other), times
+    that never run backwards (ticks and frames), and one of :data:`STATUSES`. The constructor
+    allows NaN in recorded signals and features (a dropped marker, a diverged signal); these
+    checks are for a file, whose poses, times and status the readers trust.
+    """
+    for name in ("t", "frame_t"):
+        times = getattr(result, name)
+        if not np.isfinite(times).all():
+            i = int(np.flatnonzero(~np.isfinite(times))[0])
+            return f"field {name!r}: sample {i} is {times[i]} s, not a finite time"
+        back = np.flatnonzero(np.diff(times) < 0.0)
+        if back.size:
+            i = int(back[0]) + 1
+            return f"field {name!r} runs backwards: sample {i} at {times[i]:.6g} s after {times[i - 1]:.6g} s"
+    poses = result.camera_pose
+    if poses.size:
+        finite = np.isfinite(poses).all(axis=(1, 2))
+        R = np.where(finite[:, None, None], poses[:, :3, :3], 0.0)
+        error = np.abs(np.einsum("nji,njk->nik", R, R) - np.eye(3)).max(axis=(1, 2))
+        det = np.linalg.det(R)
+        last = np.abs(poses[:, 3] - _LAST_ROW).max(axis=1)
+        rigid = finite & (error <= _RIGID_TOL) & (np.abs(det - 1.0) <= _RIGID_TOL) & (last <= 1e-9)
+        if not rigid.all():
+            i = int(np.flatnonzero(~rigid)[0])
+            what = (
+                "is not finite"
+                if not finite[i]
+                else f"is not a rigid transform (max|R^T R - I| = {error[i]:.2e}, det R = {det[i]:.6f}, "
+                f"last row {poses[i, 3].tolist()})"
+            )
+            return f"field 'camera_pose': sample {i} (t = {result.t[i]:.6g} s) {what}"
+    status = result.metadata.get("status", "complete")
+    if status not in STATUSES:
+        return f"field 'metadata.status' is {status!r}, not one of {', '.join(STATUSES)}"
+    return ""
+
+
+_RIGID_TOL = 1e-6  # max |R^T R - I| and |det R - 1| of a rigid transform (as_pose's)
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 
 def _read_archive(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:

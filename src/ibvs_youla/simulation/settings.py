@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .._validation import flag, integer, positive
+from ..control.redundancy import JointLimitAvoidance, secondary_task_from
 from ..controllers.youla import BRANCH_PRIORS, FEEDFORWARD_KINDS, LINEARIZE_AT, YoulaSettings
 from ..exceptions import InvalidParameterError
 
@@ -43,6 +44,10 @@ class SimulationSettings(YoulaSettings):
         saturate: Clip joint torques and speeds at the arm's limits (off in the paper).
         record_every: Keep every n-th tick in the result (joint-loop samples on an arm,
             control periods on the free-flying camera).
+        secondary_task: On a redundant arm (n > 6 joints), the null-space task that the
+            twist-commanding methods add to J_C^+ [v; w]
+            (:class:`~ibvs_youla.control.redundancy.JointLimitAvoidance`, or its data); None (the
+            default) for none. In :meth:`to_dict` (a run's spec) only when set.
     """
 
     joint_rate_hz: float = 1000.0
@@ -50,6 +55,7 @@ class SimulationSettings(YoulaSettings):
     model_inertia_scale: float = 1.0
     saturate: bool = False
     record_every: int = 1
+    secondary_task: JointLimitAvoidance | None = None
 
     @classmethod
     def paper(cls, **overrides: Any) -> SimulationSettings:
@@ -73,6 +79,16 @@ class SimulationSettings(YoulaSettings):
         set_(self, "model_inertia_scale", positive(self.model_inertia_scale, "model_inertia_scale"))
         set_(self, "saturate", flag(self.saturate, "saturate"))
         set_(self, "record_every", integer(self.record_every, "record_every", low=1))
+        set_(self, "secondary_task", secondary_task_from(self.secondary_task))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form (JSON, TOML); ``secondary_task`` only when set (earlier specs unchanged)."""
+        d = super().to_dict()
+        if self.secondary_task is None:
+            del d["secondary_task"]
+        else:
+            d["secondary_task"] = self.secondary_task.to_dict()
+        return d
 
     def controller_settings(self) -> YoulaSettings:
         """The paper controller's gains and options held here, as :class:`YoulaSettings`."""

@@ -31,20 +31,23 @@ import numpy as np
 
 from .._memory import fits_in_memory
 from .._validation import flag, one_of, positive
+from ..catalog import PLANTS
 from ..controllers import Controller, ServoTask, YoulaSettings, make, names, uses_youla_settings
 from ..controllers.base import CommandType
 from ..estimation.stereo_pose import check_marker_geometry
-from ..exceptions import InvalidParameterError
+from ..exceptions import IbvsYoulaError, InvalidControllerOutputError, InvalidParameterError
 from ..model.arm import Arm
 from ..model.camera import PinholeCamera, StereoCamera, default_camera
 from ..scenarios import Scenario
 from .actuation import actuation_chain
 from .compiled_loop import CompiledLoop
+from .controller_checks import checked_signals, checked_spec, command_type_of, controller_name, failed
 from .disturbances import Disturbances
 from .free_camera import FreeCameraPlant
 from .kinematic_arm import KinematicArmPlant
 from .loop import ServoLoop
 from .plant import ArmPlant
+from .progress import announces_compiles
 from .recorder import ResultRecorder
 from .results import SimulationResult, software_versions
 from .sensor import MarkerSensor
@@ -52,7 +55,6 @@ from .settings import SimulationSettings
 
 __all__ = ["PLANTS", "SENSORS", "Beliefs", "PreparedRun", "default_camera", "prepare_run", "simulate"]
 
-PLANTS = ("dynamic", "kinematic", "free-camera")
 LOOPS = ("auto", "plug-in")
 SENSORS = ("ideal", "depth", "images")
 
@@ -124,6 +126,7 @@ class Beliefs:
         }
 
 
+@announces_compiles
 def simulate(
     scenario: Scenario,
     controller: str | Controller = "ff+fb",
@@ -173,7 +176,8 @@ def simulate(
         disturbances: Pixel noise, dropouts, calibration errors (on top of ``beliefs``), model
             mismatch, latency, actuator limits (:class:`~.disturbances.Disturbances`); each
             wraps a role built here, and ``None`` or all-off wraps nothing.
-        progress: Show a progress bar (tqdm) on stderr.
+        progress: Show a progress bar (tqdm) on stderr, and one line while Numba compiles the
+            kernels the first time (:mod:`~ibvs_youla.simulation.progress`).
         loop: ``"auto"``: the compiled frame path (:mod:`.compiled_loop`: one compiled call per
             frame, the same result to rounding) when every role is the library's own and one it
             covers (classical IBVS, the ideal sensor with or without depth, the free camera or
@@ -199,8 +203,12 @@ def simulate(
             monocular camera).
         IncompatibleCommandError: the controller's command cannot drive the plant.
         JointLimitError: the scenario's configurations are outside the arm's limits.
-        SimulationDivergedError: a state left its bounds; ``error.partial`` holds the
-            samples recorded until then.
+        ControllerError: a controller object's method raised (``reset``, ``spec``, ``update``,
+            ``command``, ``signals``) or returned what the loop cannot use
+            (:class:`~ibvs_youla.exceptions.InvalidControllerOutputError`); ``error.partial``
+            holds the samples recorded until then (None before the first tick).
+        SimulationDivergedError: a state left its bounds (a finite but huge command too);
+            ``error.partial`` holds the samples recorded until then.
     """
     one_of(loop, "loop", LOOPS)
     progress = flag(progress, "progress")
@@ -235,6 +243,8 @@ class PreparedRun:
         record_every: Keep every n-th tick sample (and the last).
         recorder: Receives the samples; its metadata is the run's.
         command_signals: Names under which each command along the chain is recorded.
+        command_type: The controller's command type (checked once, before the run).
+        declared_shapes: The shapes of the controller's own signals (checked once, before the run).
         label: The progress bar's label (the scenario's name).
     """
 
@@ -248,6 +258,8 @@ class PreparedRun:
     record_every: int
     recorder: ResultRecorder
     command_signals: tuple[str, ...]
+    command_type: CommandType
+    declared_shapes: dict[str, tuple[int, ...]]
     label: str
 
     @property
@@ -276,7 +288,9 @@ class PreparedRun:
             if result is not None:
                 return result
         self.recorder.metadata["loop"] = "plug-in"  # the roles' loop; also where the compiled one declined
-        return ServoLoop(*self.roles, self.recorder, self.command_signals).run(progress, self.label)
+        return ServoLoop(
+            *self.roles, self.recorder, self.command_signals, self.command_type, self.declared_shapes
+        ).run(progress, self.label)
 
 
 def prepare_run(
@@ -334,7 +348,8 @@ def prepare_run(
         )
     truth = MarkerSensor(camera, scenario.markers_O, virtual_points=scenario.virtual_points)
     chosen = _sensor(sensor, truth)
-    measuring = disturbances.wrap_sensor(chosen, noise_rng, dropout_rng)
+    scene = _scene_for(ctrl, scenario)
+    measuring = disturbances.wrap_sensor(chosen, noise_rng, dropout_rng, scene=scene)
     beliefs.check_against(scenario, camera, world.arm is not None)
     if disturbances.calibration_changed:
         beliefs = _disturbed_beliefs(beliefs, disturbances, scenario, camera, world.arm, marker_rng)
@@ -343,13 +358,17 @@ def prepare_run(
         model_arm = world.arm if beliefs.arm is None else beliefs.arm
         if settings.model_inertia_scale != 1.0:
             model_arm = model_arm.with_inertia_scale(settings.model_inertia_scale)
+    command_type = command_type_of(ctrl)
+    if settings.secondary_task is not None:
+        _check_secondary_task(settings, ctrl, model_arm, command_type)
     chain = actuation_chain(
-        ctrl.command_type,
+        command_type,
         world.plant,
         arm=model_arm,
         q_start=scenario.q_start,
         tau_in=settings.tau_in,
         dt=world.dt,
+        secondary_task=settings.secondary_task,
     )
     joints = model_arm is not None
     task = ServoTask(
@@ -369,27 +388,35 @@ def prepare_run(
         q_target=scenario.q_target if joints else None,
         # what the controller believes: its arm at the encoder reading (it cannot see an offset)
         T_O_C_start=model_arm.camera_pose(scenario.q_start) if joints else world.T_O_C_start,
+        # a controller that servoes on the image: the scene as it is, the image taught at the target
+        scene=scene,
+        image_target=None if scene is None else measuring.image_at(world.T_O_C_target),
     )
-    ctrl.reset(task)
+    try:
+        ctrl.reset(task)
+    except IbvsYoulaError:  # a typed refusal of the task (e.g. the paper's controller, a monocular camera)
+        raise
+    except Exception as err:  # a user's bug: typed, named, chained
+        raise failed(ctrl, "reset", 0.0, err) from err
     record_every = settings.record_every
-    command_signals = (ctrl.command_type.signal, *(a.output_type.signal for a in chain))
-    declared = ctrl.signals()
-    if not isinstance(declared, dict):
-        raise InvalidParameterError(
-            f"{type(ctrl).__name__}.signals()",
-            type(declared).__name__,
-            "a dict name -> array of a fixed shape",
-        )
+    command_signals = (command_type.signal, *(a.output_type.signal for a in chain))
+    try:
+        declared = ctrl.signals()
+    except Exception as err:
+        raise failed(ctrl, "signals", 0.0, err) from err
+    declared_shapes = {name: np.shape(value) for name, value in checked_signals(ctrl, declared, 0.0).items()}
     n_joints = getattr(world.plant, "n_joints", 0)
     shapes = {
         **{name: (n_joints,) for name in world.plant.signal_names},
         **{name: (6,) if name == "camera_twist" else (n_joints,) for name in command_signals},
-        **{str(name): np.shape(value) for name, value in declared.items()},
+        **declared_shapes,
     }
-    if len(shapes) != len(world.plant.signal_names) + len(command_signals) + len(declared):
-        raise InvalidParameterError(
-            f"{type(ctrl).__name__}.signals()",
-            sorted(declared),
+    if len(shapes) != len(world.plant.signal_names) + len(command_signals) + len(declared_shapes):
+        raise InvalidControllerOutputError(
+            controller_name(ctrl),
+            "signals",
+            0.0,
+            f"the names {list(declared_shapes)}",
             f"names other than the plant's and the commands' "
             f"({', '.join((*world.plant.signal_names, *command_signals))})",
         )
@@ -428,8 +455,29 @@ def prepare_run(
         record_every,
         recorder,
         command_signals,
+        command_type,
+        declared_shapes,
         scenario.name or "simulate",
     )
+
+
+def _scene_for(ctrl: Controller, scenario: Scenario) -> Any:
+    """The scene a controller that servoes on the image sees (None for the others).
+
+    Raises:
+        InvalidParameterError: such a controller on a scenario without a scene.
+    """
+    if not getattr(ctrl, "needs_image", False):
+        return None
+    if scenario.scene is None:
+        raise InvalidParameterError(
+            "scenario",
+            f"{scenario.name!r} (point markers, no scene)",
+            f"a scenario with a scene for {ctrl.name!r}, which servoes on the image of a textured "
+            "plane, not on points: e.g. scenarios.textured_plane(), or Scenario(..., "
+            "scene=TexturedPlane(...))",
+        )
+    return scenario.scene
 
 
 def _sensor(sensor: Any, truth: MarkerSensor) -> Any:
@@ -485,17 +533,35 @@ def _controller(controller: Any, adaptive: bool, settings: SimulationSettings) -
             type(controller).__name__,
             "a registered name (" + ", ".join(repr(n) for n in names()) + ") or an iy.controllers.Controller",
         )
-    if not hasattr(controller, "command_type"):
-        raise InvalidParameterError(
-            f"{type(controller).__name__}.command_type", None, " or ".join(c.value for c in CommandType)
-        )
-    CommandType.parse(controller.command_type)
+    command_type_of(controller)  # a CommandType or its string value, else an error naming the controller
     if not adaptive:
         raise InvalidParameterError(
             "adaptive", adaptive, "True when the controller is an object (it carries its own options)"
         )
     _no_paper_gains(settings, type(controller).__name__)
     return controller
+
+
+def _check_secondary_task(
+    settings: SimulationSettings, ctrl: Controller, arm: Arm | None, command_type: CommandType
+) -> None:
+    """A secondary task needs a redundant arm and a controller whose camera twist the actuation converts."""
+    task = settings.secondary_task.to_dict()  # type: ignore[union-attr]
+    if arm is None or not arm.redundant:
+        where = "the free-flying camera" if arm is None else f"{arm.name!r} ({arm.nq} joints)"
+        raise InvalidParameterError(
+            "settings.secondary_task",
+            task,
+            f"None on {where}: a secondary task acts in the null space of J_C, which needs more than "
+            "six joints",
+        )
+    if command_type is not CommandType.CAMERA_TWIST:
+        raise InvalidParameterError(
+            "settings.secondary_task",
+            task,
+            f"None for {ctrl.name!r}, which commands {command_type.value}: the task "
+            "is added where a camera twist becomes joint velocities (the twist-commanding methods)",
+        )
 
 
 def _no_paper_gains(settings: SimulationSettings, who: str) -> None:
@@ -563,6 +629,8 @@ def _arm_world(
             f">= 1/tau_in = {1.0 / settings.tau_in:g} Hz on the dynamic arm: the inner loop (Eq. (33)-(46)) "
             "runs at the joint rate and needs a period <= tau_in",
         )
+    if plant == "dynamic" and np.any(arm.damping > 0.0):
+        _check_damping_is_not_stiff(arm, scenario.q_true_start, settings)
     if plant == "dynamic":
         saturate = settings.saturate or disturbances.limit_scale is not None
         world_plant: Any = ArmPlant(
@@ -586,6 +654,31 @@ def _arm_world(
     )
 
 
+RK4_REAL_STABILITY = 2.785  # RK4 is stable for dt * lambda <= 2.785 on the negative real axis
+
+
+def _check_damping_is_not_stiff(arm: Arm, q: np.ndarray, settings: SimulationSettings) -> None:
+    """Refuse a joint period at which RK4 cannot integrate the arm's damping (it would diverge at once).
+
+    The viscous damping B dq with the mass matrix M(q) makes the joint velocities decay at the
+    rates of the eigenvalues of M(q)^-1 B (the stiffest, a light link with a large URDF damping:
+    the xArm7's wrist, 1.4e4 1/s); RK4 at period dt is stable for rate * dt <= 2.785. Checked at
+    the start configuration.
+    """
+    M = arm.mass_matrix(q)
+    rate = float(np.linalg.eigvals(np.linalg.solve(M, np.diag(arm.damping))).real.max())  # [1/s]
+    if rate * settings.dt > RK4_REAL_STABILITY:
+        needed = rate / RK4_REAL_STABILITY
+        raise InvalidParameterError(
+            "settings.joint_rate_hz",
+            settings.joint_rate_hz,
+            f">= {needed:.4g} Hz for {arm.name!r} on the dynamic arm: its joint damping decays the joint "
+            f"speeds at up to {rate:.4g} 1/s at the start (light links, large damping), which fixed-step RK4 "
+            f"integrates only with a period below {RK4_REAL_STABILITY} / {rate:.4g} s; or a smaller damping "
+            "(the arm's damping= argument)",
+        )
+
+
 def _free_camera_world(scenario: Scenario, arm: Arm | None, settings: SimulationSettings) -> _World:
     if scenario.has_joints:  # an arm scenario: its camera poses, without the arm
         arm = Arm.irb4600() if arm is None else arm
@@ -607,7 +700,7 @@ def _metadata(
     beliefs: Beliefs,
     n_ticks: int,
 ) -> dict[str, Any]:
-    spec = ctrl.spec()
+    spec = checked_spec(ctrl)
     joints = scenario.has_joints
     metadata: dict[str, Any] = {
         "scenario": scenario.name,

@@ -9,12 +9,20 @@ first asks that server for its URL and gives up after ``connect_timeout`` (defau
 :class:`~ibvs_youla.exceptions.VisualizationError` (:mod:`.meshcat_server`); meshcat itself
 would wait forever. Scene paths: ``arm``, ``markers``, ``camera``, ``target``, ``rays`` (see
 :meth:`Viewer.set_visible`).
+
+A server the viewer started is its own to stop: :meth:`Viewer.close` does, and so does the end of
+the process, even by SIGTERM or SIGHUP (``kill``, a closed terminal, a batch system's stop). Their
+default action ends Python without unwinding, and meshcat's server, in a session of its own,
+outlived it; while a viewer holds a server (and the program has not set a handler of its own, in
+the main thread), either signal raises ``SystemExit`` instead, so ``finally`` blocks and meshcat's
+exit handler stop the server.
 """
 
 from __future__ import annotations
 
 import contextlib
 import io
+import signal
 import threading
 import time
 import warnings
@@ -118,9 +126,11 @@ class Viewer:
             self._vis = meshcat.Visualizer(zmq_url=zmq_url)
         self._g = meshcat.geometry
         self._server = self._vis.window.server_proc  # None when connected to an existing server
+        self._signals: dict[int, Any] = {}  # signal -> the handler it had before this viewer's
         if self._server is not None:  # drain its pipes so a chatty server never blocks on a full pipe
             for pipe in (self._server.stdout, self._server.stderr):
                 threading.Thread(target=pipe.read, daemon=True).start()
+            self._signals = _exit_on_termination()
         self.url: str = self._vis.url()
         self._markers_O: np.ndarray | None = None
         self._camera_shown = self._rays_shown = False
@@ -275,6 +285,10 @@ class Viewer:
         if self._server is not None and self._server.poll() is None:
             self._server.kill()
             self._server.wait()
+        for signum, previous in self._signals.items():  # the program's handlers again
+            if signal.getsignal(signum) is _raise_system_exit:
+                signal.signal(signum, previous)
+        self._signals = {}
 
     def __enter__(self) -> Viewer:
         return self
@@ -308,3 +322,24 @@ class Viewer:
         rgb = [[(c >> 16) / 255, (c >> 8 & 255) / 255, (c & 255) / 255] for c in LENS_RAY_COLORS]
         colors = np.repeat(np.array(rgb), 2 * segments.shape[1], axis=0)
         self._vis["rays"].set_object(self._lines(segments.reshape(-1, 3), colors))
+
+
+def _raise_system_exit(signum: int, frame: Any) -> None:
+    """A signal handler: end the program as ``exit(128 + signum)`` would, unwinding it."""
+    raise SystemExit(128 + signum)
+
+
+def _exit_on_termination() -> dict[int, Any]:
+    """Make SIGTERM and SIGHUP raise SystemExit where they still have their default action.
+
+    Only in the main thread (Python runs handlers there) and only for signals the program has not
+    given a handler; returns signal -> previous handler, for :meth:`Viewer.close` to restore.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    changed = {}
+    for name in ("SIGTERM", "SIGHUP"):
+        signum = getattr(signal, name, None)  # no SIGHUP on Windows
+        if signum is not None and signal.getsignal(signum) is signal.SIG_DFL:
+            changed[signum] = signal.signal(signum, _raise_system_exit)
+    return changed

@@ -25,12 +25,13 @@ independent streams of ``numpy.random.SeedSequence(seed)``.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
 
-from ..._validation import non_negative, positive
+from ..._validation import keywords_checked, non_negative, positive
 from ...exceptions import InvalidParameterError
 
 __all__ = ["Disturbances"]
@@ -91,6 +92,7 @@ def _friction(value: Any, name: str, unit: str) -> float | tuple[float, ...]:
     return tuple(float(v) for v in arr)
 
 
+@keywords_checked
 @dataclass(frozen=True)
 class Disturbances:
     """Disturbances of one run (module docstring); every default is "off".
@@ -103,7 +105,9 @@ class Disturbances:
             (:class:`~ibvs_youla.simulation.image_sensor.ImageSensor`: 5 cm discs facing the
             camera, the moments detector, ``missing="nan"``), instead of the true projections;
             a frame with a missing marker is withheld from the controller (:mod:`.policy`).
-            Needs a camera with pixels (not ``PinholeCamera.normalized()``).
+            Needs a camera with pixels (not ``PinholeCamera.normalized()``). For a controller
+            that servoes on the image of a scene (``photometric``), the image of the scene is
+            the rendered image instead: blurred, noisy and rounded to 8 bits, not exact.
         image_blur_px: Standard deviation of the rendered images' Gaussian blur [px] (needs
             ``rendered_images``).
         image_noise_grey: Standard deviation of the rendered images' sensor noise [grey levels,
@@ -235,13 +239,18 @@ class Disturbances:
         return out
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> Disturbances:
+    def from_dict(cls, data: Mapping[str, Any]) -> Disturbances:
         """The disturbances of :meth:`to_dict` (or any subset of the fields).
 
         Raises:
-            InvalidParameterError: an unknown field (the message lists the valid ones).
+            InvalidParameterError: not a mapping, or an unknown field (the message lists the
+                valid ones).
         """
         names = {f.name for f in fields(cls)}
+        if not isinstance(data, Mapping):
+            raise InvalidParameterError(
+                "disturbances", type(data).__name__, "a mapping of fields among " + ", ".join(sorted(names))
+            )
         unknown = sorted(set(data) - names)
         if unknown:
             raise InvalidParameterError("disturbances", unknown, "fields among " + ", ".join(sorted(names)))
@@ -322,8 +331,13 @@ class Disturbances:
         """Seed of the rendered images' noise: the fourth stream of SeedSequence(seed)."""
         return int(np.random.SeedSequence(self.seed).spawn(4)[3].generate_state(1)[0])
 
-    def wrap_sensor(self, sensor: Any, noise_rng: Any, dropout_rng: Any) -> Any:
+    def wrap_sensor(self, sensor: Any, noise_rng: Any, dropout_rng: Any, scene: Any = None) -> Any:
         """The sensor with the images, the sensing disturbances and the latency around it (or itself).
+
+        With a ``scene`` (a controller that servoes on the image), every frame carries the image of
+        the scene (:class:`~ibvs_youla.simulation.scene_sensor.SceneImageSensor`), and
+        ``rendered_images`` with its blur and noise describe that image, not disc markers: the
+        point features stay those of ``sensor``.
 
         Raises:
             InvalidParameterError: ``rendered_images`` around a sensor other than the true
@@ -334,7 +348,15 @@ class Disturbances:
         from .sensing import DisturbedSensor
         from .timing import DelayedSensor
 
-        if self.rendered_images:
+        if scene is not None:
+            from ..rendering import ImagingSettings
+            from ..scene_sensor import SceneImageSensor
+
+            imaging = None
+            if self.rendered_images:
+                imaging = ImagingSettings(self.image_blur_px, self.image_noise_grey, seed=self.image_seed)
+            sensor = SceneImageSensor(sensor, scene, imaging)
+        elif self.rendered_images:
             from ..image_sensor import ImageSensor
             from ..rendering import ImagingSettings
             from ..sensor import MarkerSensor

@@ -6,7 +6,7 @@ frame with a missing marker (NaN features, ``visible`` False: :mod:`.sensing`) i
 from the controller by :class:`HoldOnMissingFeatures`: its :meth:`update` is not called, and
 the controller goes on with the state of its last complete frame. Per method:
 
-* twist laws (``ibvs-*``, ``pbvs``, ``2.5d``, ``hybrid``, ``mpc-ibvs``): the camera twist of
+* twist laws (``ibvs-*``, ``pbvs``, ``2.5d``, ``hybrid``, ``mpc-ibvs``, ``photometric``): the camera twist of
   the last complete frame is held (zero-order hold stretched over the missing frames); on an
   arm it keeps going through J_C^+ at the current joints and the inner loop;
 * the paper's controllers (``fb``, ``ff+fb``): q_fb of the last complete frame is held; the
@@ -37,6 +37,7 @@ class HoldOnMissingFeatures(Controller):
     def __init__(self, controller: Controller) -> None:
         self.controller = controller
         self.command_type = controller.command_type  # type: ignore[misc]
+        self.needs_image = getattr(controller, "needs_image", False)  # type: ignore[misc]
         self._withheld = np.zeros(1)
 
     @property

@@ -158,4 +158,4 @@ class DisturbedSensor:
         if self._depth_sigma and depth is not None:
             depth = depth + self._depth_sigma * depth**2 * self._depth_rng.standard_normal(depth.shape[0])
         self._frames += 1
-        return CameraFrame(frame.t, features, visible, depth)
+        return frame._replace(features=features, visible=visible, depth=depth)  # an image, if any, passes

@@ -5,7 +5,8 @@ true camera (so a marker lost *now* still stops the run as ``markers_lost``) and
 one captured ``latency_frames`` frames before, which carries its own capture time
 (:attr:`~ibvs_youla.controllers.CameraFrame.t`). Before k frames exist, the oldest frame (the
 first) is returned: the history before the start is the start, the usual initial condition of
-a delayed system (the arm starts at rest).
+a delayed system (the arm starts at rest). A latency longer than the run is no special case: the
+controller sees the first frame throughout (the buffer never holds more than the frames taken).
 
 A delay of d frames on the free camera's classical IBVS, v_k = -lambda L^+ e_{k-d}, gives the
 loop e_{k+1} = e_k - lambda T e_{k-d} (T the frame period), stable for lambda T < 2 sin(pi /
@@ -18,6 +19,7 @@ The camera and joint-loop *rates* are not disturbances: they are settings
 
 from __future__ import annotations
 
+import sys
 from collections import deque
 from typing import Any
 
@@ -39,7 +41,8 @@ class DelayedSensor:
     def __init__(self, sensor: Any, latency_frames: int) -> None:
         self.sensor = sensor
         self.latency_frames = int(latency_frames)
-        self._buffer: deque[CameraFrame] = deque(maxlen=self.latency_frames + 1)
+        # bounded by the frames taken; deque's maxlen must fit a C ssize_t (a latency of 1e30 frames)
+        self._buffer: deque[CameraFrame] = deque(maxlen=min(self.latency_frames + 1, sys.maxsize))
 
     def __getattr__(self, name: str) -> Any:
         """Everything else (``camera``, ``n_points``, ``features_at``...) is the wrapped sensor's."""

@@ -171,7 +171,7 @@ def test_an_adaptive_gain_and_calibration_errors_drawn_per_case():
 
 def test_runs_that_end_early():
     """A marker lost and an estimate that fails stop the case at simulate()'s tick with its status and reason;
-    an SVD that fails in the law (a ControllerError in simulate) makes the case run again alone."""
+    a frame the kernels cannot finish (simulate() raises there) makes the case run again alone."""
     normalized = iy.PinholeCamera.normalized()
     at_target = iy.Scenario.free_camera(T_O_C_start=TARGET, T_O_C_target=TARGET, markers_O=SQUARE_O)
     cases = [*free_cases(2), at_target]
@@ -184,10 +184,12 @@ def test_runs_that_end_early():
     failed = assert_batch_is_simulate(cases, ClassicalIBVS("current", 1e30), **kwargs)
     assert failed.statuses == ("estimate_failed", "estimate_failed", "complete")
     assert "ClassicalIBVS's estimate failed" in failed[0].metadata["error"]
-    # lambda = 1e200 with measured depths: the law's SVD does not converge on the next frame
-    svd = assert_batch_is_simulate(cases, ClassicalIBVS("current", 1e200), sensor="depth", **kwargs)
-    assert svd.statuses == ("controller_failed", "controller_failed", "complete") and svd.rerun == (0, 1)
-    assert svd[0].metadata["loop"] == "plug-in" and len(svd[0]) == 1
+    # lambda = 1e200 with measured depths: a twist of 1e200 sends the pose out of range on the first
+    # frame, which the free camera refuses (a diverged run and its partial record)
+    huge = assert_batch_is_simulate(cases, ClassicalIBVS("current", 1e200), sensor="depth", **kwargs)
+    assert huge.statuses == ("diverged", "diverged", "complete") and huge.rerun == (0, 1)
+    assert huge[0].metadata["loop"] == "plug-in" and len(huge[0]) == 1
+    assert "the camera pose is not finite" in huge[0].metadata["error"]
 
 
 def test_bad_input_says_what_was_received_and_what_is_valid(arm):

@@ -563,6 +563,12 @@ def _collect(
     stored: set[str] = set()  # keys stored by this call: a later copy of the same run is dropped
     clock = _RunClock(run_timeout)
     window = _window(client)
+    # each run's key (a SHA-256 of its JSON) made once: a row's bookkeeping compares it with every run
+    # in flight, up to the window times BATCH_RUNS of them
+    keys = {id(spec): spec.key for spec in pending}
+
+    def key(spec: ExperimentSpec) -> str:
+        return keys.get(id(spec)) or spec.key
 
     def submit(tasks: list[Task], retries: int, again: bool = False) -> None:
         """Submit ``tasks``; ``again``: copies of runs that did not return, run next wherever they land."""
@@ -582,23 +588,25 @@ def _collect(
             in_flight.update(zip(futures, batches, strict=True))
 
     def done(task: Task) -> bool:
-        return all(s.key in stored for s in task)
+        return all(key(s) in stored for s in task)
 
     def keep(spec: ExperimentSpec, row: dict[str, Any], result: Any) -> None:
-        if spec.key in stored:  # a late copy of a run already stored
+        mine = key(spec)
+        if mine in stored:  # a late copy of a run already stored
             return
-        stored.add(spec.key)
+        stored.add(mine)
         _store(row, result, writer, summary, bar, path)
         # copies of tasks now all stored still running elsewhere are released; those on a hung worker are
         # kept until the end: released, they would free its slots, and the scheduler would send it new
         # runs to hold
-        for other in [f for f, t in in_flight.items() if any(s.key == spec.key for s in t) and done(t)]:
+        for other in [f for f, t in in_flight.items() if any(key(s) == mine for s in t) and done(t)]:
             in_flight.pop(other)
             other.release()
 
     def elsewhere(spec: ExperimentSpec) -> bool:
         """Stored, or another copy of the run still running."""
-        return spec.key in stored or any(spec.key == s.key for t in in_flight.values() for s in t)
+        mine = key(spec)
+        return mine in stored or any(mine == key(s) for t in in_flight.values() for s in t)
 
     while queue or in_flight or suspects:
         _stop_if(terminated)
@@ -606,9 +614,9 @@ def _collect(
             submit([queue.pop() for _ in range(min(window - len(in_flight), len(queue)))], 2)
         elif not queue and not in_flight and suspects:  # alone on the cluster, after every other run
             spec = suspects.pop(0)
-            if spec.key in stored:
+            if key(spec) in stored:
                 continue
-            convicted.add(spec.key)  # a death from now on is its own
+            convicted.add(key(spec))  # a death from now on is its own
             submit([(spec,)], 0)
         due = writer.seconds_until_due()
         poll = clock.poll_s if due is None else min(max(due, 0.01), clock.poll_s)
@@ -633,7 +641,7 @@ def _collect(
             if not left:
                 pass  # other copies of its runs are stored or still running
             elif future.status == "error" and isinstance(future.exception(), KilledWorker):
-                if len(task) == 1 and task[0].key in convicted:
+                if len(task) == 1 and key(task[0]) in convicted:
                     keep(task[0], error_row(task[0], future.exception()), None)
                 else:  # the scheduler blames every run that was on the dying workers: each again, alone
                     suspects.extend(left)
@@ -655,18 +663,18 @@ def _collect(
                     run_timeout,
                     worker,
                 )
-                submit([(s,) for s in task if s.key not in stored], 2, again=True)
+                submit([(s,) for s in task if key(s) not in stored], 2, again=True)
                 continue
             (spec,) = task
-            clock.timed_out(spec.key, worker)
-            if clock.attempts[spec.key] >= 2:
-                message = f"timed out: no result after {age:.0f} s on {clock.tried(spec.key)}"
-                _LOG.warning("ibvs-youla: run %s %s; stored as a timeout", spec.key, message)
+            clock.timed_out(key(spec), worker)
+            if clock.attempts[key(spec)] >= 2:
+                message = f"timed out: no result after {age:.0f} s on {clock.tried(key(spec))}"
+                _LOG.warning("ibvs-youla: run %s %s; stored as a timeout", key(spec), message)
                 keep(spec, timeout_row(spec, message, age), None)
             else:  # elsewhere if another worker is healthy; the first copy back is stored
                 _LOG.warning(
                     "ibvs-youla: run %s took more than %g s on %s; running it again%s",
-                    spec.key,
+                    key(spec),
                     run_timeout,
                     worker,
                     " on another worker" if clock.healthy(client) else "",

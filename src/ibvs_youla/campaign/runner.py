@@ -709,10 +709,11 @@ def _collect(
 class _RunClock:
     """How long each run has been running on its worker, from what the scheduler says it processes.
 
-    A worker of ``k`` threads runs, of the runs it holds, the ``k`` submitted first (copies of
-    runs that did not return, submitted with a higher priority, before the others; a copy left
-    on a hung worker still holds its slot); a run's clock starts when it is one of those (a run
-    queued behind others on a worker is not timed). A worker with a run past the timeout is
+    A worker of ``k`` threads runs, of the runs it holds, those it runs already, then the first
+    submitted (copies of runs that did not return, submitted with a higher priority, before the
+    others; a copy left on a hung worker still holds its slot; a copy does not stop a task that
+    runs, which may be a batch of several runs), ``k`` in all; a run's clock starts when it is one
+    of those (a run queued behind others on a worker is not timed). A worker with a run past the timeout is
     hung: later runs avoid it while another worker is healthy, and the runs queued on it move
     elsewhere; it is healthy again once that run returns.
     """
@@ -748,7 +749,15 @@ class _RunClock:
             self._none_healthy_since = None
         seen, started = {}, {}
         for worker, keys in processing.items():
-            held = sorted((k for k in keys if k in self._index), key=self._index.__getitem__)  # run order
+            # run order: what already runs there first (a worker does not stop a task for a copy of a
+            # higher priority; a batch task may run for seconds), then by priority and submission
+            held = sorted(
+                (k for k in keys if k in self._index),
+                key=lambda k: (
+                    self._seen.get(k, (None,))[0] != worker or k not in self._started,
+                    self._index[k],
+                ),
+            )
             k = max(1, threads.get(worker, 1))
             for n, key in enumerate(held):
                 old = self._seen.get(key)

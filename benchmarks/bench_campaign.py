@@ -10,10 +10,13 @@ Two stated campaigns (seed 0), each timed in this process without Dask (``serial
   and the seven), the dynamic IRB 4600 (joint loop 1 kHz), the ZED 2 stereo camera at 100 Hz
   (the library's default rates), 20 s per run, ``--arm-cases`` 3 cases (27 runs).
 
-What one timed campaign does, as a campaign's client would: ``client.map(run_spec, specs,
-pure=False)``, the rows taken as they complete (``distributed.as_completed``) and written in
-batches of ``--batch`` rows (a Parquet file written under a temporary name, then renamed). Its
-wall time runs from the map to the last file renamed. Each worker first runs a 0.2 s version of
+What one timed campaign does, as a campaign's client would: the specs as the runner's tasks
+(``runner.tasks_of``: the classical IBVS runs of one method in batches of up to 50, made by one
+``simulate_batch`` call, ``run_specs``; the other runs one per task, ``run_spec``),
+``client.map(..., pure=False)``, the rows taken as they complete (``distributed.as_completed``) and
+written in batches of ``--batch`` rows (a Parquet file written under a temporary name, then
+renamed). Its wall time runs from the map to the last file renamed. Serially, the same tasks in
+this process. Each worker first runs a 0.2 s version of
 every spec's method, pinned to it (imports, the arm, OpenCV and DAQP warmed up; untimed).
 
 Reported per campaign and worker count: ``runs_per_minute`` = runs / wall x 60; ``busy_s`` = the
@@ -25,7 +28,14 @@ every worker count gave the serial rows (timing columns aside). ``own_cores`` an
 (:class:`CpuMeter`) tell whether other jobs shared the cores meanwhile. With ``--repeats`` > 1
 the configurations alternate and each figure is the median repeat's.
 
-Campaign sizing (the speed targets): a 1,000-case, seven-method campaign of 20 s runs, projected from the
+Campaign sizing (the speed targets): a 1,000-case, seven-method campaign of 20 s runs. With
+``--full-cases N`` (default 0: skipped) the free one is measured: ``run_campaign`` itself (the
+runner, its tasks and Parquet rows) on a local cluster of 2 workers, N free-planar cases x the
+seven methods, its minutes from the first submission to the last row (``run_s``) and from the call
+to its return (``wall_s``, the cluster's start included); the rows of its first ``--check-cases``
+cases are compared with ``run_spec``'s (equal, timing aside) and, for the classical IBVS methods,
+with the plug-in loop's (every number to 1e-9, relative or absolute: what the rows were before
+those methods had a compiled path). Otherwise (and besides) projected from the
 runs per minute measured on 2 workers: ``projection["free_1000x7_minutes"]`` (target under 5
 minutes) from the free campaign, and ``projection["arm_1000x7_minutes"]`` (target under 30) from
 the arm campaign at the default rates, for the seven twist methods (their mean run, the dearer
@@ -54,7 +64,8 @@ except ImportError:  # run as a script
     from _timing import CpuShare, count, machine, perf_counter, seconds, write_json
 
 from ibvs_youla.campaign.cases import generate_cases
-from ibvs_youla.campaign.run import run_spec
+from ibvs_youla.campaign.run import run_spec, run_specs
+from ibvs_youla.campaign.runner import tasks_of
 from ibvs_youla.campaign.spec import ExperimentSpec, specs_for
 
 TWIST_METHODS = ("ibvs-current", "ibvs-desired", "ibvs-mean", "pbvs", "2.5d", "hybrid", "mpc-ibvs")
@@ -66,8 +77,10 @@ TARGETS = {
     "scaling_min": 1.7,
     "overhead_share_max": 0.05,
     "free_1000x7_minutes_max": 5.0,
+    "free_1000x7_measured_minutes_max": 1.0,
     "arm_1000x7_minutes_max": 30.0,
 }
+ROW_TOLERANCE = 1e-9  # relative or absolute, rows against the plug-in loop's
 
 
 def campaigns(args: argparse.Namespace) -> dict[str, dict[str, Any]]:
@@ -172,10 +185,13 @@ def run_on_client(client: Any, specs: list[ExperimentSpec], batch: int) -> dict[
         write_s, files = 0.0, 0
         meter = CpuMeter()
         t0 = perf_counter()
-        futures = client.map(run_spec, specs, pure=False)
-        for _, row in as_completed(futures, with_results=True):
-            rows.append(row)
-            pending.append(row)
+        tasks = tasks_of(specs)
+        singles, batches = [t[0] for t in tasks if len(t) == 1], [list(t) for t in tasks if len(t) > 1]
+        futures = [*client.map(run_spec, singles, pure=False), *client.map(run_specs, batches, pure=False)]
+        for _, value in as_completed(futures, with_results=True):
+            returned = value if isinstance(value, list) else [value]
+            rows.extend(returned)
+            pending.extend(returned)
             if len(pending) >= batch:
                 t_write = perf_counter()
                 write_batch(folder, files, pending)
@@ -192,10 +208,10 @@ def run_on_client(client: Any, specs: list[ExperimentSpec], batch: int) -> dict[
 
 
 def run_serial(specs: list[ExperimentSpec]) -> dict[str, Any]:
-    """The same specs one after the other in this process (no Dask, no writing)."""
+    """The same tasks one after the other in this process (no Dask, no writing)."""
     meter = CpuMeter()
     t0 = perf_counter()
-    rows = [run_spec(s) for s in specs]
+    rows = [row for task in tasks_of(specs) for row in run_specs(task)]
     wall = perf_counter() - t0
     return {"wall_s": wall, "write_s": 0.0, "files": 0, "rows": rows, "cpu": meter.stop()}
 
@@ -274,7 +290,22 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ap.add_argument("--arm-duration", type=seconds, default=20.0, help="simulated s per arm run (20)")
     ap.add_argument("--repeats", type=count, default=1, help="timed repeats of every configuration (1)")
     ap.add_argument("--batch", type=count, default=50, help="rows per Parquet file written (50)")
+    ap.add_argument(
+        "--full-cases", type=int, default=0, help="measure a free campaign of N cases x 7 (0: no)"
+    )
+    ap.add_argument("--check-cases", type=count, default=10, help="its first cases checked row by row (10)")
+    ap.add_argument("--only-full", action="store_true", help="only the measured free campaign")
     args = ap.parse_args(argv)
+    if args.only_full:
+        report = {"machine": machine(), "settings": {k: v for k, v in vars(args).items() if k != "json"}}
+        report["full"] = full_free_campaign(args)
+        report["targets"] = {
+            **TARGETS,
+            "met": {"free_1000x7_measured_minutes": _full_met(report["full"])},
+        }
+        _print_full(report["full"])
+        write_json(args.json, report, headline)
+        return report
 
     load_before = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
     cpu = CpuShare()
@@ -352,6 +383,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             "arm_1000x7_minutes": arm_minutes["twist"]["2"] < TARGETS["arm_1000x7_minutes_max"],
         },
     }
+    if args.full_cases > 0:
+        report["full"] = full_free_campaign(args)
+        report["targets"]["met"]["free_1000x7_measured_minutes"] = _full_met(report["full"])
     report["load_average_1min_after"] = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
     report["cpu"] = cpu.stop()
 
@@ -380,8 +414,103 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         f"(target < {TARGETS['arm_1000x7_minutes_max']:g}); "
         f"with the nine-method mix {arm_minutes['all']['2']:.1f} min on 2"
     )
+    if "full" in report:
+        _print_full(report["full"])
     write_json(args.json, report, headline)
     return report
+
+
+def full_free_campaign(args: argparse.Namespace) -> dict[str, Any]:
+    """``run_campaign`` of ``--full-cases`` free-planar cases x the seven methods on 2 local workers, timed.
+
+    Its first ``--check-cases`` cases' rows are compared with ``run_spec``'s and, for the classical
+    IBVS methods, with the plug-in loop's (module docstring).
+    """
+    from ibvs_youla.campaign.definition import CampaignDefinition
+    from ibvs_youla.campaign.runner import run_campaign
+    from ibvs_youla.campaign.storage import read_rows
+
+    definition = CampaignDefinition(
+        "free-planar",
+        args.full_cases,
+        TWIST_METHODS,
+        seed=0,
+        plant="free-camera",
+        camera="normalized",
+        duration=args.duration,
+        settings={"joint_rate_hz": 25.0, "camera_rate_hz": 25.0},
+    )
+    with tempfile.TemporaryDirectory(prefix="bench-campaign-full-") as tmp:
+        meter = CpuMeter()
+        t0 = perf_counter()
+        summary = run_campaign(definition, Path(tmp) / "free", workers=2, progress=False)
+        wall = perf_counter() - t0
+        cpu = meter.stop()
+        stored = read_rows(Path(tmp) / "free").set_index("key")
+    checked = [s for s in definition.specs() if s.case < args.check_cases]
+    same, worst = True, 0.0
+    for spec in checked:
+        row = {"key": spec.key, **stored.loc[spec.key].to_dict()}
+        same = same and _deviation(row, run_spec(spec)) == 0.0
+        if spec.controller.startswith("ibvs-"):
+            worst = max(worst, _deviation(row, _plug_in_row(spec)))
+    return {
+        "cases": args.full_cases,
+        "methods": list(TWIST_METHODS),
+        "duration_s": args.duration,
+        "runs": summary.ran,
+        "run_s": summary.run_s,
+        "wall_s": wall,
+        "minutes": summary.run_s / 60.0,
+        "wall_minutes": wall / 60.0,
+        "outcomes": dict(sorted(summary.outcomes.items())),
+        "checked_rows": len(checked),
+        "same_rows_as_run_spec": same,
+        "plug_in_row_deviation_max": worst,
+        "rows_within_tolerance": same and worst <= ROW_TOLERANCE,
+        **cpu,
+    }
+
+
+def _plug_in_row(spec: ExperimentSpec) -> dict[str, Any]:
+    """The row of a run made by the plug-in loop (``simulate(..., loop="plug-in")``)."""
+    from ibvs_youla.campaign.metrics import row_from_result
+    from ibvs_youla.simulation.simulate import simulate
+
+    return row_from_result(spec, simulate(**spec.build(), loop="plug-in"))
+
+
+def _deviation(a: dict[str, Any], b: dict[str, Any]) -> float:
+    """Largest difference of two rows' numbers (over max(1, |b|)), timing aside; inf if another differs."""
+    worst = 0.0
+    for column, value in b.items():
+        if column in TIMING_COLUMNS:
+            continue
+        other = a[column]
+        if isinstance(value, float) and np.isfinite(value):
+            worst = max(worst, abs(float(other) - value) / max(1.0, abs(value)))
+        elif isinstance(value, float):
+            worst = worst if str(float(other)) == str(value) else np.inf
+        elif other != value:
+            worst = np.inf
+    return worst
+
+
+def _full_met(full: dict[str, Any]) -> bool:
+    return bool(
+        full["minutes"] < TARGETS["free_1000x7_measured_minutes_max"] and full["rows_within_tolerance"]
+    )
+
+
+def _print_full(full: dict[str, Any]) -> None:
+    print(
+        f"measured: {full['cases']} free cases x 7 methods of {full['duration_s']:g} s on 2 workers: "
+        f"{full['minutes']:.2f} min from the first run to the last row ({full['wall_minutes']:.2f} min with "
+        f"the cluster's start; target < {TARGETS['free_1000x7_measured_minutes_max']:g}); outcomes "
+        f"{full['outcomes']}; first {full['checked_rows']} rows: as run_spec's "
+        f"{full['same_rows_as_run_spec']}, the plug-in loop's to {full['plug_in_row_deviation_max']:.1e}; "
+        f"other jobs {full['other_cores']:.2f} cores"
+    )
 
 
 def _arm_rows(entries: dict[str, list[dict[str, Any]]]) -> list[dict[str, Any]]:
@@ -411,6 +540,8 @@ def _mean_run_s(entries: dict[str, list[dict[str, Any]]], methods: tuple[str, ..
 
 def headline(r: dict[str, Any]) -> dict[str, Any]:
     """The figures kept in the report's history."""
+    if "campaigns" not in r:  # the measured free campaign alone
+        return {"free_1000x7_measured_minutes": r["full"]["minutes"], "other_cores": r["full"]["other_cores"]}
     return {
         "runs_per_minute": {
             n: {k: c["runs_per_minute"] for k, c in camp["workers"].items()}

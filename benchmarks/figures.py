@@ -240,6 +240,38 @@ def peers(r: Report) -> str:
     )
 
 
+def batch(r: Report) -> str:
+    """A case-frame of simulate_batch at N cases beside an iteration of ViSP's C++ loop, one core, one run."""
+    visp = r["peers"].get("visp")
+    rows = [
+        "| tutorial-ibvs-4pts, one core | cases | per case-frame, CPU [us] | / ViSP | wall [us] | / ViSP "
+        "| whole call per case-frame, CPU [us] | set-up per case [ms] |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    if visp:
+        rows.append(
+            f"| ViSP {visp['version']} C++, an iteration of one run (median) | 1 | "
+            f"{_num(visp['step_us'])} | 1.0 | | | | |"
+        )
+    labels = {"depth": 'simulate_batch, measured depth (`sensor="depth"`)', "monocular": "simulate_batch, "
+              "monocular (SQPnP depths, per case)"}  # fmt: skip
+    for mode, o in r["ours"].items():
+        rows.append(
+            f"| {labels.get(mode, mode)} | {o['cases']:,} | **{_num(o['case_frame_us'], 2)}** | "
+            f"{_num(o['case_frame_us'] / visp['step_us'], 2) if visp else 'n/a'} | "
+            f"{_num(o['case_frame_wall_us'], 2)} | "
+            f"{_num(o['case_frame_wall_us'] / visp['step_us'], 2) if visp else 'n/a'} | "
+            f"{_num(o['whole_call_per_case_frame_us'], 2)} | {_num(o['setup_per_case_ms'], 2)} |"
+        )
+    s = r["settings"]
+    skipped = "".join(f" {k} skipped: {v}." for k, v in r.get("skipped", {}).items())
+    return (
+        "\n".join(rows)
+        + f"\n\n{s['steps']} and {2 * s['steps']} steps per call, {s['rounds']} alternating rounds, OpenBLAS "
+        f"threads {s['openblas_threads']}.{skipped} Measured {_when(r)}.\n"
+    )
+
+
 def campaign(r: Report) -> str:
     """Runs per minute on 1 and 2 Dask workers, scaling, overhead, and the campaign sizings."""
     rows = [
@@ -276,6 +308,15 @@ def campaign(r: Report) -> str:
         sizing.append(
             f"| dynamic arm, the nine-method mix | {_num(p['arm_1000x7_all_methods_minutes']['1'])} | "
             f"{_num(p['arm_1000x7_all_methods_minutes']['2'])} | |"
+        )
+    full = r.get("full")
+    if full:
+        sizing.append(
+            f"| free camera, measured: `run_campaign` of {full['cases']:,} cases x 7 "
+            f"({full['duration_s']:g} s runs) | | **{_num(full['minutes'], 2)}** "
+            f"({_num(full['wall_minutes'], 2)} with the cluster's start) | "
+            f"< {targets['free_1000x7_measured_minutes_max']:g} "
+            f"{_met(met.get('free_1000x7_measured_minutes'))} |"
         )
     per_method = p.get("arm_run_s_by_method")
     if per_method:
@@ -429,7 +470,23 @@ def targets(reports: dict[str, Report | None]) -> str:
                     f"| {what} | {_num(ratios[key], 2)}x ({_num(ours[mode]['step_us'])} us) | "
                     f"{_met(ok(ratios[key]))} | {load(peer)} |"
                 )
-    if camp is not None:
+    bat = reports.get("batch")
+    if bat is not None and bat.get("ratios"):
+        ratio = bat["ratios"]["depth case-frame / visp iteration"]
+        rows.append(
+            f"| simulate_batch at {bat['ours']['depth']['cases']:,} cases: a case-frame <= ViSP's C++ "
+            f"iteration (one core, CPU time) | {_num(ratio, 2)}x "
+            f"({_num(bat['ours']['depth']['case_frame_us'], 2)} us) | "
+            f"{_met(ratio <= 1.0)} | {load(bat)} |"
+        )
+    if camp is not None and camp.get("full"):
+        full = camp["full"]
+        rows.append(
+            f"| measured: {full['cases']:,} x 7 free-camera runs of {full['duration_s']:g} s < 1 min "
+            f"(2 workers), rows to 1e-9 | {_num(full['minutes'], 2)} min | "
+            f"{_met(camp['targets']['met'].get('free_1000x7_measured_minutes'))} | {load(camp)} |"
+        )
+    if camp is not None and "projection" in camp:
         p = camp["projection"]
         rows.append(
             "| 1,000 x 7 free-camera runs of 20 s < 5 min (2 workers) | "
@@ -456,6 +513,7 @@ TABLES: dict[str, tuple[str, Callable[[Report], str]]] = {
     "simulation": ("simulation", simulation),
     "controllers": ("controllers", controllers),
     "peers": ("peers", peers),
+    "batch": ("batch", batch),
     "campaign": ("campaign", campaign),
     "cli": ("cli", cli),
 }

@@ -8,9 +8,10 @@ One command, from the repository's root with an editable install:
 Steps: (1) warm Numba's cache (compile or load every kernel once, so that no timing includes
 it); (2) run ``bench_outer_loop``, ``bench_simulation``, ``bench_controllers``, ``bench_peers``
 (ViSP 3.5 and MVTB-python on the same work: it builds its C++ harness and makes MVTB's venv),
-``bench_campaign`` and ``bench_cli`` one after the other, each writing ``reports/<name>.json``
-(latest report at the top level, every run's headline appended to its ``history``); (3) rewrite
-the generated blocks of ``README.md`` from the reports (:mod:`figures`). A benchmark that fails is reported
+``bench_batch`` (simulate_batch beside ViSP's C++ iteration), ``bench_campaign`` and ``bench_cli`` one
+after the other, each writing ``reports/<name>.json`` (latest report at the top level, every run's
+headline appended to its ``history``); (3) rewrite the generated blocks of ``README.md`` from the
+reports (:mod:`figures`). A benchmark that fails is reported
 and the others still run; its README block keeps the previous figures; the exit code is 1.
 The load of the machine (load averages, and the cores other jobs used during each benchmark)
 is in every report and printed at the end: figures taken while other jobs used a large share
@@ -28,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 HERE = Path(__file__).resolve().parent
-ORDER = ("outer_loop", "simulation", "controllers", "peers", "campaign", "cli")
+ORDER = ("outer_loop", "simulation", "controllers", "peers", "batch", "campaign", "cli")
 QUICK = {
     "outer_loop": ["--configs", "20", "--repeats", "2", "--rebuilds", "2"],
     "simulation": ["--duration", "0.5", "--classical-duration", "4", "--repeats", "1"],
@@ -44,6 +45,18 @@ QUICK = {
         "3",
         "--mvtb-repeats",
         "1",
+    ],
+    "batch": [
+        "--cases",
+        "50",
+        "--steps",
+        "20",
+        "--rounds",
+        "1",
+        "--visp-repeats",
+        "3",
+        "--monocular-cases",
+        "5",
     ],
     "campaign": ["--cases", "2", "--arm-cases", "1", "--duration", "4", "--arm-duration", "1"],
     "cli": ["--repeats", "2"],
@@ -79,6 +92,12 @@ def warm_up() -> float:
     quick = iy.SimulationSettings(joint_rate_hz=25.0, camera_rate_hz=25.0)
     for plant in ("kinematic", "free-camera"):
         iy.simulate(scenarios.physical(2), "ibvs-current", duration=0.2, plant=plant, settings=quick, arm=arm)
+    tutorial = [suites.task("gans-general").scenario()] * 2
+    for sensor in (None, "depth"):  # simulate_batch's kernels
+        iy.simulate_batch(
+            tutorial, "ibvs-current", duration=0.2, plant="free-camera", camera=iy.PinholeCamera.normalized(),
+            settings=quick, sensor=sensor,
+        )  # fmt: skip
     for sensor in (None, "depth"):
         iy.simulate(
             suites.task("gans-general").scenario(),

@@ -8,6 +8,7 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
@@ -258,11 +259,45 @@ def test_peers_benchmark_writes_our_steps_and_its_table(tmp_path):
     report = load("bench_peers").main(argv)
     saved = json.loads(out.read_text())
     assert saved["ours"].keys() == report["ours"].keys() >= {"depth", "monocular", "depth, plug-in loop"}
-    assert saved["ours"]["depth"]["loop"] == "compiled" and saved["ours"]["monocular"]["loop"] == "plug-in"
+    assert saved["ours"]["depth"]["loop"] == "compiled" and saved["ours"]["monocular"]["loop"] == "compiled"
+    assert saved["ours"]["monocular, plug-in loop"]["loop"] == "plug-in"
     assert all(finite_positive(o["run_ms"]) for o in saved["ours"].values())
     assert saved["peers"] == {} and saved["ratios"] == {} and saved["targets"]["met"] == {}
     table = load("figures").peers(saved)
     assert "measured depth" in table and "ViSP 3.5" not in table and "| n/a | n/a |" in table
+
+
+def test_batch_benchmark_writes_the_case_frame_and_its_table(tmp_path):
+    """Without ViSP (the suite does not install it) the script times simulate_batch and renders its table."""
+    out = tmp_path / "batch.json"
+    argv = [
+        "--cases",
+        "6",
+        "--steps",
+        "4",
+        "--rounds",
+        "1",
+        "--monocular-cases",
+        "2",
+        "--no-visp",
+        "--json",
+        str(out),
+    ]
+    report = load("bench_batch").main(argv)
+    saved = json.loads(out.read_text())
+    assert saved["ours"].keys() == report["ours"].keys() == {"depth", "monocular"}
+    for mode, cases in (("depth", 6), ("monocular", 2)):
+        o = saved["ours"][mode]
+        assert o["cases"] == cases and o["statuses"] == ["complete"]
+        assert finite_positive(o["setup_per_case_ms"]) and finite_positive(o["whole_call_per_case_frame_us"])
+        short, long = (np.median(o["cpu_s"][k]) for k in ("4", "8"))
+        assert o["case_frame_us"] == pytest.approx((long - short) / (cases * 4) * 1e6)
+        short, long = (np.median(o["walls_s"][k]) for k in ("4", "8"))
+        assert o["case_frame_wall_us"] == pytest.approx((long - short) / (cases * 4) * 1e6)
+    assert saved["peers"] == {} and saved["ratios"] == {} and saved["targets"]["met"] == {}
+    assert saved["settings"]["openblas_threads"] is not None
+    table = load("figures").batch(saved)
+    assert "simulate_batch, measured depth" in table and "ViSP" not in table.split("\n")[2]
 
 
 @pytest.mark.slow

@@ -496,7 +496,8 @@ def test_a_sigterm_that_a_run_swallows_still_stops_the_campaign(tmp_path, monkey
     with pytest.raises(KeyboardInterrupt):
         run_campaign(CampaignDefinition(**DEFINITION), out, workers=0, progress=False)
     rows = read_rows(out)
-    assert len(calls) == 3 and sorted(rows["key"]) == sorted(calls[:2])
+    keys = set(rows["key"])  # the two pbvs runs before the third, and the two batches of classical IBVS
+    assert len(calls) == 3 and set(calls[:2]) <= keys and calls[2] not in keys and len(keys) == 2 + 2 * 12
     assert rows["outcome"].ne("error").all()
     assert signal.getsignal(signal.SIGTERM) is before  # the campaign's handler is gone again
     # nothing of the signal outlives its campaign: the next one, here or in a thread, runs to the end

@@ -42,6 +42,8 @@ _LAZY: dict[str, str] = {
     # simulation
     "Scenario": ".scenarios",
     "simulate": ".simulation.simulate",
+    "simulate_batch": ".simulation.batch",
+    "BatchResult": ".simulation.batch",
     "Beliefs": ".simulation.simulate",
     "Disturbances": ".simulation.disturbances.definition",
     "SimulationSettings": ".simulation.settings",
@@ -55,6 +57,7 @@ _ALIASES = {"robots": ".model.robots"}  # iy.robots: robots by name
 
 __all__ = [
     "Arm",
+    "BatchResult",
     "Beliefs",
     "DetectorSettings",
     "DiscMarkers",
@@ -86,6 +89,7 @@ __all__ = [
     "robots",
     "scenarios",
     "simulate",
+    "simulate_batch",
     "simulation",
 ]
 
@@ -121,6 +125,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .model.camera import PinholeCamera, StereoCamera, Visibility
     from .model.textured_plane import TexturedPlane
     from .scenarios import Scenario
+    from .simulation.batch import BatchResult, simulate_batch
     from .simulation.disturbances.definition import Disturbances
     from .simulation.image_sensor import ImageSensor
     from .simulation.rendering import DiscMarkers, ImagingSettings

@@ -11,13 +11,17 @@ The campaign is data (:class:`~.definition.CampaignDefinition`, with the default
   no other change (its workers need this package installed);
 * with ``workers=0`` in this process, without Dask (debugging, tiny campaigns).
 
-Specs travel as JSON; the workers return rows (:func:`~.run.run_spec`) and never write. Tasks
-are submitted with ``pure=False, retries=2`` in a window of a few per worker thread. A worker
+Specs travel as JSON; the workers return rows (:func:`~.run.run_spec`) and never write. Runs that
+one :func:`~ibvs_youla.simulate_batch` call can make together (:func:`~.run.batch_key`: classical
+IBVS on the free camera or the kinematic arm) travel as one task of up to :data:`BATCH_RUNS` specs
+(:func:`~.run.run_specs`), each of their rows the one it would have alone; the others one per task.
+Tasks are submitted with ``pure=False, retries=2`` in a window of a few per worker thread. A worker
 that dies loses its current tasks, which the scheduler reruns elsewhere. A run that took
 down ``distributed.scheduler.allowed-failures`` (3) workers (``KilledWorker``) may be innocent:
 the scheduler blames every run that was on a dying worker, so it is run again, alone on the
 cluster, after the others; if it kills its worker again it is stored as an ``"error"`` row.
-A task that raised (``run_spec`` does not, so the cause is the worker's
+A batch task that took down workers or ran past the run timeout is split: its runs go on one per
+task, each with the guarantees above. A task that raised (``run_spec`` does not, so the cause is the worker's
 environment, e.g. this package missing) is not stored: the campaign goes on, and the summary
 counts it so that a rerun retries it. Rows are flushed by :class:`~.storage.RowWriter` every
 ``batch_rows`` rows or ``batch_seconds`` seconds, and on Ctrl-C or SIGTERM (which the client
@@ -50,6 +54,7 @@ from .definition import FAMILY_DEFAULTS, CampaignDefinition
 from .spec import ExperimentSpec
 
 __all__ = [
+    "BATCH_RUNS",
     "FAMILY_DEFAULTS",
     "CampaignDefinition",
     "CampaignSummary",
@@ -60,6 +65,7 @@ __all__ = [
     "max_workers",
     "run_campaign",
     "start_local_cluster",
+    "tasks_of",
 ]
 
 _LOG = logging.getLogger(__name__)
@@ -68,6 +74,7 @@ TASKS_PER_THREAD = 4  # tasks in flight per worker thread (at least MIN_WINDOW i
 MIN_WINDOW = 32
 RUN_TIMEOUT_S = 600.0  # default longest run on a worker [s]: a normal run takes seconds
 LATE_S = 60.0  # a run running longer than this (or half the run timeout) shows as late [s]
+BATCH_RUNS = 50  # most runs of one simulate_batch call in one task
 
 
 class SchedulerError(IbvsYoulaError):
@@ -469,13 +476,14 @@ def _run_here(
     series: bool,
     terminated: threading.Event,
 ) -> None:
-    from .run import run_spec_with_result
+    from . import run
 
-    for spec in pending:
+    for task in tasks_of(pending):
         _stop_if(terminated)
-        row, result = run_spec_with_result(spec)
+        pairs = [run.run_spec_with_result(task[0])] if len(task) == 1 else run.run_specs_with_results(task)
         _stop_if(terminated)
-        _store(row, result if series else None, writer, summary, bar, path)
+        for row, result in pairs:
+            _store(row, result if series else None, writer, summary, bar, path)
 
 
 def _run_dask(
@@ -503,6 +511,31 @@ def _run_dask(
         ) from None
 
 
+Task = tuple[ExperimentSpec, ...]  # the runs of one task: one, or several of one batch key
+
+
+def tasks_of(specs: Sequence[ExperimentSpec], size: int = BATCH_RUNS) -> list[Task]:
+    """The specs as tasks in the campaign's order: runs of one batch key together, up to ``size`` a task.
+
+    A spec of no batch key (:func:`~.run.batch_key`) is a task of its own; a task's place is its
+    first run's.
+    """
+    from .run import batch_key
+
+    tasks: list[list[ExperimentSpec]] = []
+    filling: dict[str, list[ExperimentSpec]] = {}
+    for spec in specs:
+        key = batch_key(spec)
+        task = None if key is None else filling.get(key)
+        if task is not None and len(task) < size:
+            task.append(spec)
+            continue
+        tasks.append([spec])
+        if key is not None:
+            filling[key] = tasks[-1]
+    return [tuple(task) for task in tasks]
+
+
 def _collect(
     client: Any,
     pending: Sequence[ExperimentSpec],
@@ -520,37 +553,62 @@ def _collect(
     from distributed.scheduler import KilledWorker
 
     from .metrics import error_row, timeout_row
-    from .run import run_spec, run_spec_with_result
+    from .run import run_spec, run_spec_with_result, run_specs, run_specs_with_results
 
     function = run_spec_with_result if series else run_spec
-    queue = list(reversed(pending))  # pop() from the end keeps the campaign's order
+    batch_function = run_specs_with_results if series else run_specs
+    queue = list(reversed(tasks_of(pending)))  # pop() from the end keeps the campaign's order
     suspects: list[ExperimentSpec] = []  # killed a worker together with others: rerun alone
     convicted: set[str] = set()  # killed a worker while running alone
-    in_flight: dict[Any, ExperimentSpec] = {}
-    stale: dict[Any, ExperimentSpec] = {}  # copies on a hung worker: stored if first back, else dropped
+    in_flight: dict[Any, Task] = {}
+    stale: dict[Any, Task] = {}  # copies on a hung worker: stored if first back, else dropped
     stored: set[str] = set()  # keys stored by this call: a later copy of the same run is dropped
     clock = _RunClock(run_timeout)
     window = _window(client)
+    # each run's key (a SHA-256 of its JSON) made once: a row's bookkeeping compares it with every run
+    # in flight, up to the window times BATCH_RUNS of them
+    keys = {id(spec): spec.key for spec in pending}
 
-    def submit(specs: list[ExperimentSpec], retries: int, again: bool = False) -> None:
-        """Submit ``specs``; ``again``: copies of runs that did not return, run next wherever they land."""
+    def key(spec: ExperimentSpec) -> str:
+        return keys.get(id(spec)) or spec.key
+
+    def submit(tasks: list[Task], retries: int, again: bool = False) -> None:
+        """Submit ``tasks``; ``again``: copies of runs that did not return, run next wherever they land."""
         extra = clock.placement(client)
         if again:  # run next wherever they land (a worker runs by priority, then submission)
             extra["priority"] = 1
-        futures = client.map(function, [s.to_json() for s in specs], pure=False, retries=retries, **extra)
-        clock.submitted(futures, again)
-        in_flight.update(zip(futures, specs, strict=True))
+        singles, batches = [t for t in tasks if len(t) == 1], [t for t in tasks if len(t) > 1]
+        if singles:
+            runs = [t[0].to_json() for t in singles]
+            futures = client.map(function, runs, pure=False, retries=retries, **extra)
+            clock.submitted(futures, again)
+            in_flight.update(zip(futures, singles, strict=True))
+        if batches:
+            runs = [[s.to_json() for s in t] for t in batches]
+            futures = client.map(batch_function, runs, pure=False, retries=retries, **extra)
+            clock.submitted(futures, again)
+            in_flight.update(zip(futures, batches, strict=True))
+
+    def done(task: Task) -> bool:
+        return all(key(s) in stored for s in task)
 
     def keep(spec: ExperimentSpec, row: dict[str, Any], result: Any) -> None:
-        if spec.key in stored:  # a late copy of a run already stored
+        mine = key(spec)
+        if mine in stored:  # a late copy of a run already stored
             return
-        stored.add(spec.key)
+        stored.add(mine)
         _store(row, result, writer, summary, bar, path)
-        # copies still running elsewhere are released; those on a hung worker are kept until the end:
-        # released, they would free its slots, and the scheduler would send it new runs to hold
-        for other in [f for f, s in in_flight.items() if s.key == spec.key]:
+        # copies of tasks now all stored still running elsewhere are released; those on a hung worker are
+        # kept until the end: released, they would free its slots, and the scheduler would send it new
+        # runs to hold
+        for other in [f for f, t in in_flight.items() if any(key(s) == mine for s in t) and done(t)]:
             in_flight.pop(other)
             other.release()
+
+    def elsewhere(spec: ExperimentSpec) -> bool:
+        """Stored, or another copy of the run still running."""
+        mine = key(spec)
+        return mine in stored or any(mine == key(s) for t in in_flight.values() for s in t)
 
     while queue or in_flight or suspects:
         _stop_if(terminated)
@@ -558,10 +616,10 @@ def _collect(
             submit([queue.pop() for _ in range(min(window - len(in_flight), len(queue)))], 2)
         elif not queue and not in_flight and suspects:  # alone on the cluster, after every other run
             spec = suspects.pop(0)
-            if spec.key in stored:
+            if key(spec) in stored:
                 continue
-            convicted.add(spec.key)  # a death from now on is its own
-            submit([spec], 0)
+            convicted.add(key(spec))  # a death from now on is its own
+            submit([(spec,)], 0)
         due = writer.seconds_until_due()
         poll = clock.poll_s if due is None else min(max(due, 0.01), clock.poll_s)
         try:
@@ -572,22 +630,25 @@ def _collect(
             if future.status in ("lost", "pending"):  # its result died with a worker: recomputed
                 continue
             clock.returned(future.key)
-            spec = in_flight.pop(future, None) or stale.pop(future, None)
-            if spec is None:  # released above, as a copy of a stored run
+            task = in_flight.pop(future, None) or stale.pop(future, None)
+            if task is None:  # released above, as a copy of stored runs
                 continue
             if future.status == "finished":
                 value = future.result()
-                row, result = value if series else (value, None)
-                keep(spec, row, result)
-            elif spec.key in stored or any(s.key == spec.key for s in in_flight.values()):
-                pass  # another copy of the run is stored or still running
+                for spec, item in zip(task, [value] if len(task) == 1 else value, strict=True):
+                    row, result = item if series else (item, None)
+                    keep(spec, row, result)
+                continue
+            left = [s for s in task if not elsewhere(s)]
+            if not left:
+                pass  # other copies of its runs are stored or still running
             elif future.status == "error" and isinstance(future.exception(), KilledWorker):
-                if spec.key in convicted:
-                    keep(spec, error_row(spec, future.exception()), None)
-                else:  # the scheduler blames every run that was on the dying workers: retry it alone
-                    suspects.append(spec)
+                if len(task) == 1 and key(task[0]) in convicted:
+                    keep(task[0], error_row(task[0], future.exception()), None)
+                else:  # the scheduler blames every run that was on the dying workers: each again, alone
+                    suspects.extend(left)
             elif future.status == "error":
-                summary.not_stored += 1
+                summary.not_stored += len(left)
                 if not summary.first_failure:
                     err = future.exception()
                     summary.first_failure = " ".join(f"{type(err).__name__}: {err}".split())[:300]
@@ -595,26 +656,37 @@ def _collect(
                 raise CancelledError(future.key)
             future.release()
         for future, worker, age in clock.overdue(client, in_flight):
-            spec = in_flight.pop(future)
-            stale[future] = spec
-            if clock.attempts[spec.key] >= 2:
-                message = f"timed out: no result after {age:.0f} s on {clock.tried(spec.key)}"
-                _LOG.warning("ibvs-youla: run %s %s; stored as a timeout", spec.key, message)
+            task = in_flight.pop(future)
+            stale[future] = task
+            if len(task) > 1:  # a batch past the run timeout: its runs again, each a task timed alone
+                _LOG.warning(
+                    "ibvs-youla: a batch of %d runs took more than %g s on %s; running them one per task",
+                    len(task),
+                    run_timeout,
+                    worker,
+                )
+                submit([(s,) for s in task if key(s) not in stored], 2, again=True)
+                continue
+            (spec,) = task
+            clock.timed_out(key(spec), worker)
+            if clock.attempts[key(spec)] >= 2:
+                message = f"timed out: no result after {age:.0f} s on {clock.tried(key(spec))}"
+                _LOG.warning("ibvs-youla: run %s %s; stored as a timeout", key(spec), message)
                 keep(spec, timeout_row(spec, message, age), None)
             else:  # elsewhere if another worker is healthy; the first copy back is stored
                 _LOG.warning(
                     "ibvs-youla: run %s took more than %g s on %s; running it again%s",
-                    spec.key,
+                    key(spec),
                     run_timeout,
                     worker,
                     " on another worker" if clock.healthy(client) else "",
                 )
-                submit([spec], 2, again=True)
+                submit([task], 2, again=True)
         if clock.healthy(client):  # runs waiting behind a hung worker's run: move them (else they bounce)
-            for future, spec in clock.stuck_behind(client, in_flight):
+            for future, task in clock.stuck_behind(client, in_flight):
                 in_flight.pop(future)
-                stale[future] = spec
-                submit([spec], 2, again=True)
+                stale[future] = task
+                submit([task], 2, again=True)
         elif clock.stalled_s() > run_timeout:  # no worker can take a run: the campaign cannot go on
             hung = ", ".join(sorted(clock.hung))
             raise SchedulerError(
@@ -639,10 +711,11 @@ def _collect(
 class _RunClock:
     """How long each run has been running on its worker, from what the scheduler says it processes.
 
-    A worker of ``k`` threads runs, of the runs it holds, the ``k`` submitted first (copies of
-    runs that did not return, submitted with a higher priority, before the others; a copy left
-    on a hung worker still holds its slot); a run's clock starts when it is one of those (a run
-    queued behind others on a worker is not timed). A worker with a run past the timeout is
+    A worker of ``k`` threads runs, of the runs it holds, those it runs already, then the first
+    submitted (copies of runs that did not return, submitted with a higher priority, before the
+    others; a copy left on a hung worker still holds its slot; a copy does not stop a task that
+    runs, which may be a batch of several runs), ``k`` in all; a run's clock starts when it is one
+    of those (a run queued behind others on a worker is not timed). A worker with a run past the timeout is
     hung: later runs avoid it while another worker is healthy, and the runs queued on it move
     elsewhere; it is healthy again once that run returns.
     """
@@ -662,7 +735,7 @@ class _RunClock:
         self._last_poll = -math.inf
         self._processing: dict[str, list[Any]] = {}
 
-    def _poll(self, client: Any, in_flight: dict[Any, ExperimentSpec]) -> None:
+    def _poll(self, client: Any, in_flight: dict[Any, Any]) -> None:
         now = time.monotonic()
         if now - self._last_poll < self.poll_s:
             return
@@ -678,7 +751,15 @@ class _RunClock:
             self._none_healthy_since = None
         seen, started = {}, {}
         for worker, keys in processing.items():
-            held = sorted((k for k in keys if k in self._index), key=self._index.__getitem__)  # run order
+            # run order: what already runs there first (a worker does not stop a task for a copy of a
+            # higher priority; a batch task may run for seconds), then by priority and submission
+            held = sorted(
+                (k for k in keys if k in self._index),
+                key=lambda k: (
+                    self._seen.get(k, (None,))[0] != worker or k not in self._started,
+                    self._index[k],
+                ),
+            )
             k = max(1, threads.get(worker, 1))
             for n, key in enumerate(held):
                 old = self._seen.get(key)
@@ -699,34 +780,37 @@ class _RunClock:
         return 0.0 if since is None else time.monotonic() - since
 
     def returned(self, key: Any) -> None:
-        """The run of future ``key`` returned: a worker it made hung works again."""
+        """The task of future ``key`` returned: a worker it made hung works again."""
         for worker, keys in list(self._overdue.items()):
             if key in keys:
                 del self._overdue[worker]
                 self.hung.discard(worker)
 
-    def overdue(self, client: Any, in_flight: dict[Any, ExperimentSpec]) -> list[tuple[Any, str, float]]:
-        """The runs past the timeout (each counted once: the caller moves them out of ``in_flight``)."""
+    def overdue(self, client: Any, in_flight: dict[Any, Any]) -> list[tuple[Any, str, float]]:
+        """The tasks past the timeout (each counted once: the caller moves them out of ``in_flight``)."""
         self._poll(client, in_flight)
         now, found = time.monotonic(), []
-        for future, spec in in_flight.items():
+        for future in in_flight:
             started = self._started.get(future.key)
             if started is not None and now - started > self.run_timeout:
                 worker = self._seen[future.key][0]
                 self.hung.add(worker)
                 self._overdue.setdefault(worker, set()).add(future.key)
-                self.attempts[spec.key] += 1
-                self._workers.setdefault(spec.key, []).append(worker)
                 found.append((future, worker, now - started))
         return found
 
-    def stuck_behind(self, client: Any, in_flight: dict[Any, ExperimentSpec]) -> list[tuple[Any, Any]]:
+    def timed_out(self, key: str, worker: str) -> None:
+        """Count a timeout of the run ``key`` on ``worker`` (:attr:`attempts`, :meth:`tried`)."""
+        self.attempts[key] += 1
+        self._workers.setdefault(key, []).append(worker)
+
+    def stuck_behind(self, client: Any, in_flight: dict[Any, Any]) -> list[tuple[Any, Any]]:
         """The runs queued on a hung worker (not timed there: they wait behind the hung run)."""
         return [
             (f, s) for f, s in in_flight.items() if f.key in self._seen and self._seen[f.key][0] in self.hung
         ]
 
-    def late(self, in_flight: dict[Any, ExperimentSpec]) -> int:
+    def late(self, in_flight: dict[Any, Any]) -> int:
         now = time.monotonic()
         return sum(now - self._started.get(f.key, now) > self.late_s for f in in_flight)
 

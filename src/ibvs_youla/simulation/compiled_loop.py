@@ -19,19 +19,28 @@ loop="plug-in")`` keeps the plug-in loop):
 
 Beliefs (the controller's camera and markers) and calibration disturbances, which change models and
 not roles, are covered. The depths of L come from the depth sensor (``sensor="depth"``) or the
-stereo camera's triangulation, or are not needed (``ibvs-desired``). A monocular law at the current
-features without measured depths is not covered: its depths come from OpenCV's SQPnP pose, whose
-stopping tolerance turns a last-bit difference of the features into differences of ~1e-11 in the
-pose (measured: 1e-11 on the tutorial case through these kernels), so no kernel of other rounding
-can equal the plug-in loop to 1e-12 there; it runs the plug-in loop. Per frame the free camera is
-one compiled call; a tick of the kinematic arm is Pinocchio's camera pose and J_C (the arm's
-kinematics) and one compiled call.
+stereo camera's triangulation, or are not needed (``ibvs-desired``); a monocular law at the current
+features without measured depths takes them from the controller's own pose estimate, as its update
+does: its ``CameraPoseEstimator`` (OpenCV's SQPnP) is called between two compiled calls, the sensor
+and the rest of the frame, and the believed markers' depths in that pose (:func:`estimated_depths`)
+are written into the frame. Per frame the free camera is one compiled call (two around the pose); a
+tick of the kinematic arm is Pinocchio's camera pose and J_C (the arm's kinematics) and one compiled
+call.
 
 It gives the plug-in loop's result to rounding (``tests/test_compiled_frame_path.py``: 1e-12 on every
-method x plant x camera covered), with ``metadata["loop"] = "compiled"``. Where the plug-in loop
-would stop early or raise (a marker lost, a failed estimate, a diverging plant, an invalid first
-command), a kernel declines, and the run is made again by the plug-in loop from the start, which
-gives its status or error. What differs: ``metadata["phase_seconds"]`` has the whole loop in
+method x plant x camera covered), with ``metadata["loop"] = "compiled"``, except where the depths come
+from the PnP pose: SQPnP stops its iterations at a step of ~1e-5 (``||delta||^2 <= 1e-10``), so a
+last-bit difference of the features can move its pose by up to ~1e-8 of its scale, and the run then
+equals the plug-in loop's to that tolerance (the test: 1e-7; measured 4e-9 on the twist). A batch of
+runs (:mod:`.batch_loop`) makes the same calls in the same order, so its cases equal these runs to
+the bit. Where the plug-in loop stops early, the run stops at the same tick with its status and
+reason: a marker the true camera lost (the kernel rejects a depth or a disparity, and the sensor,
+measuring the same pose, gives the error the plug-in loop reports), a pose the controller cannot
+estimate. Where it would raise (a diverging plant, an invalid command) or where the sensor measures
+after all a frame the kernel rejected (a depth at the edge of rounding), a kernel declines and the
+run is made again by the plug-in loop from the start, which gives its status or error.
+
+What differs: ``metadata["phase_seconds"]`` has the whole loop in
 ``frame`` (the phases are one call), ``update_time`` is each frame's compiled call (the sensor,
 the law, the recording and the plant step, not the law alone), and the controller object is reset
 but not stepped (its ``update`` is not called; its last twist is not kept).
@@ -44,17 +53,19 @@ from typing import Any
 
 import numpy as np
 
+from .._geometry import inverse_pose, transform_points
 from ..controllers.base import CommandType
 from ..controllers.ibvs import INTERACTIONS, PINV_THRESHOLD, AdaptiveGain, ClassicalIBVS
-from ..model.camera import StereoCamera
+from ..exceptions import InvalidDisparityError, PointBehindCameraError, PoseEstimationError
+from ..model.camera import PinholeCamera
 from ..model.camera_kernels import camera_parameters
 from .actuation import TwistToJointVelocity
 from .frame_kernels import (
-    DECLINED,
     DEPTH_MEASURED,
     DEPTH_TRIANGULATED,
-    free_camera_frame,
+    free_camera_step,
     kinematic_tick,
+    measure,
     pack_parameters,
 )
 from .free_camera import FreeCameraPlant
@@ -63,10 +74,22 @@ from .recorder import ResultRecorder
 from .results import SimulationResult
 from .sensor import MarkerSensor
 
-__all__ = ["CompiledLoop"]
+__all__ = ["CompiledLoop", "estimated_depths"]
 
 _FREE_SIGNALS = ("camera_twist", "ibvs_gain")
 _ARM_SIGNALS = ("q", "q_true", "dq", "camera_twist", "dq_ref", "ibvs_gain")
+
+
+def estimated_depths(estimator: Any, features: np.ndarray, markers_O: np.ndarray) -> np.ndarray:
+    """Z_C (n,) [m] of the believed markers in the pose the controller estimates from ``features``.
+
+    The arithmetic of a monocular law's update at the current features
+    (:class:`~ibvs_youla.controllers.image_points.CurrentInteraction`): its ``CameraPoseEstimator``
+    (OpenCV's SQPnP), then the markers ``markers_O`` (n, 3) in that camera frame. Raises its
+    ``PoseEstimationError``.
+    """
+    T_O_C = estimator(features.copy())
+    return transform_points(inverse_pose(T_O_C), markers_O)[:, 2]  # type: ignore[no-any-return]
 
 
 class CompiledLoop:
@@ -88,7 +111,8 @@ class CompiledLoop:
         recorder: ResultRecorder,
     ) -> None:
         task = controller.task
-        self.plant, self.recorder, self.n_ticks = plant, recorder, n_ticks
+        self.controller, self.sensor = controller, sensor
+        self.plant, self.recorder, self.n_ticks, self.dt = plant, recorder, n_ticks, dt
         self.ticks_per_frame, self.record_every = ticks_per_frame, record_every
         self.markers_O = np.ascontiguousarray(sensor.markers_O, dtype=float)
         gain = controller.gain
@@ -96,8 +120,13 @@ class CompiledLoop:
             gain_ = (gain.lambda_0, gain.lambda_inf, gain.lambda_dot_0, True)
         else:
             gain_ = (float(gain), float(gain), 0.0, False)
-        # the depths of L (ibvs-desired needs none): measured, or triangulated (covering() checks)
-        depth_from = DEPTH_MEASURED if sensor.measures_depth else DEPTH_TRIANGULATED
+        # the depths of L (ibvs-desired needs none): measured, triangulated (stereo), or the believed
+        # markers' depths in the pose the controller estimates, written into the frame before its law
+        pose = isinstance(task.camera, PinholeCamera) and not sensor.measures_depth
+        estimates = pose and controller.interaction != "desired"
+        self.pose_estimator = controller.pose_estimator if estimates else None
+        self.believed_markers_O = np.asarray(task.markers_O, dtype=float)
+        depth_from = DEPTH_MEASURED if sensor.measures_depth or pose else DEPTH_TRIANGULATED
         interaction = INTERACTIONS.index(controller.interaction)
         policy = chain[0].policy if chain else None
         self.params = pack_parameters(
@@ -153,10 +182,6 @@ class CompiledLoop:
             return None
         if recorder.signal_names != expected or sensor.n_points != controller.task.n_points:
             return None
-        if controller.interaction != "desired" and not (
-            sensor.measures_depth or isinstance(controller.task.camera, StereoCamera)
-        ):
-            return None  # the depths from the monocular PnP: the plug-in loop (module docstring)
         return cls(controller, sensor, plant, chain, dt, n_ticks, ticks_per_frame, record_every, recorder)
 
     def run(self, progress: bool = False, label: str = "simulate") -> SimulationResult | None:
@@ -173,56 +198,107 @@ class CompiledLoop:
 
             bar = tqdm(total=self.n_ticks, unit="tick", desc=label, leave=False)
         t0 = time.perf_counter()
-        self._progress = (row0, 0)  # (next table row, frames logged) so far, for an interrupted run
+        self._progress = (row0, 0)  # (next table row, frames logged) so far
+        self._stop = ("complete", "")  # the status and reason of a run that stops early
         try:
             with np.errstate(all="ignore"):
                 if type(self.plant) is FreeCameraPlant:
-                    row, done = self._free_camera(table, row0, frames, bar)
+                    declined = self._free_camera(table, row0, frames, bar)
                 else:
-                    row, done = self._kinematic(table, row0, frames, bar)
+                    declined = self._kinematic(table, row0, frames, bar)
         except KeyboardInterrupt as err:  # Ctrl-C: keep what was recorded, as the plug-in loop does
+            self._stop = ("interrupted", "interrupted")
             row, done = self._progress
-            err.partial = self._result(row0, row, frames[:done], "interrupted", t0)  # type: ignore[attr-defined]
+            err.partial = self._result(row0, row, frames[:done], t0)  # type: ignore[attr-defined]
             raise
         finally:
             if bar is not None:
                 bar.close()
-        if row < 0:
+        if declined:
             return None
-        return self._result(row0, row, frames[:done], "complete", t0)
+        row, done = self._progress
+        return self._result(row0, row, frames[:done], t0)
 
-    def _result(self, row0: int, row: int, frames: np.ndarray, status: str, t0: float) -> SimulationResult:
+    def _result(self, row0: int, row: int, frames: np.ndarray, t0: float) -> SimulationResult:
         recorder, m, n = self.recorder, self.law.shape[0], self.markers_O.shape[0]
         recorder.advance(row - row0)
         recorder.record_frames(
             frames[:, 0], frames[:, 1 : 1 + m], frames[:, 1 + m : 1 + m + n] != 0.0, frames[:, -1]
         )
         seconds = time.perf_counter() - t0
+        status, reason = self._stop
         extra: dict[str, Any] = {"phase_seconds": {"frame": seconds, "control": 0.0, "plant": 0.0}}
         if status != "complete":
-            extra["error"] = "interrupted"
+            extra["error"] = reason
         return recorder.result(status=status, extra_metadata=extra)
 
-    def _free_camera(self, table: np.ndarray, row: int, frames: np.ndarray, bar: Any) -> tuple[int, int]:
+    def lost_marker(self, T_O_C: np.ndarray, t: float) -> str | None:
+        """Why the true camera lost a marker at pose T_O_C (time t [s]), as the plug-in loop says it.
+
+        The sensor kernel rejected a depth or a disparity; the sensor itself, measuring the same pose,
+        raises the error whose message the plug-in loop reports. None when it measures the frame (a
+        depth at the edge of rounding): the plug-in loop decides then.
+        """
+        try:
+            self.sensor.measure(T_O_C.copy(), t)
+        except (PointBehindCameraError, InvalidDisparityError) as err:
+            return f"t = {t:.6g} s: the true camera lost a marker: {err}"
+        return None
+
+    def frame_depths(self, frame: np.ndarray, t: float) -> str | None:
+        """The depths of L from the controller's pose estimate, into ``frame``; the reason if it failed.
+
+        As the plug-in loop reports a failed estimate (status ``"estimate_failed"``).
+        """
+        m, n = self.law.shape[0], self.markers_O.shape[0]
+        try:
+            frame[m + n :] = estimated_depths(self.pose_estimator, frame[:m], self.believed_markers_O)
+        except PoseEstimationError as err:
+            return f"t = {t:.6g} s: {type(self.controller).__name__}'s estimate failed: {err}"
+        return None
+
+    def _measured(self, T_O_C: np.ndarray, frame: np.ndarray, k: int) -> bool | None:
+        """Frame k into ``frame`` (features, visibility, the depths of L).
+
+        True; False when the run stops (``self._stop`` says why); None when the plug-in loop decides.
+        """
+        t = k * self.dt
+        if not measure(T_O_C, self.markers_O, self.params, frame):
+            reason = self.lost_marker(T_O_C, t)
+            if reason is None:
+                return None
+            self._stop = ("markers_lost", reason)
+            return False
+        if self.pose_estimator is not None:
+            reason = self.frame_depths(frame, t)
+            if reason is not None:
+                self._stop = ("estimate_failed", reason)
+                return False
+        return True
+
+    def _free_camera(self, table: np.ndarray, row: int, frames: np.ndarray, bar: Any) -> bool:
+        """The run on the free camera; True when a kernel declined."""
         n, m = self.markers_O.shape[0], self.law.shape[0]
         T = self.plant.camera_pose()
-        markers, law, params = self.markers_O, self.law, self.params
+        law, params = self.law, self.params
         frame, twist, gain, sizes = np.zeros(m + 2 * n), np.zeros(6), np.zeros(1), self.recorder.row_sizes
         clock = time.perf_counter
         for k in range(self.n_ticks + 1):
             tic = clock()
-            row = free_camera_frame(
-                k, T, markers, law, params, frame, twist, gain, table, row, sizes, frames,
-            )  # fmt: skip
+            measured = self._measured(T, frame, k)
+            if not measured:
+                return measured is None
+            row = free_camera_step(k, T, n, law, params, frame, twist, gain, table, row, sizes, frames)
             if row < 0:
-                return DECLINED, 0
+                return True
             frames[k, -1] = clock() - tic
             self._progress = (row, k + 1)
             if bar is not None and k % 1000 == 0 and k:
                 bar.update(1000)
-        return row, self.n_ticks + 1
+        return False
 
-    def _kinematic(self, table: np.ndarray, row: int, frames: np.ndarray, bar: Any) -> tuple[int, int]:
+    def _kinematic(self, table: np.ndarray, row: int, frames: np.ndarray, bar: Any) -> bool:
+        """The run on the kinematic arm; True when a kernel declined."""
         n, m = self.markers_O.shape[0], self.law.shape[0]
         plant, arm = self.plant, self.model_arm
         reading = plant.reading()
@@ -239,15 +315,19 @@ class CompiledLoop:
             is_frame = k % every == 0
             if is_frame or k % record_every == 0 or k == last:
                 T = camera_fk(state[0])
+            if is_frame:
+                measured = self._measured(T, frame, k)
+                if not measured:
+                    return measured is None
             row = kinematic_tick(
-                k, is_frame, T, jacobian(state[1]), state, markers, law, params, frame, twist, gain,
+                k, is_frame, True, T, jacobian(state[1]), state, markers, law, params, frame, twist, gain,
                 table, row, sizes, frames, k // every,
             )  # fmt: skip
             if row < 0:
-                return DECLINED, 0
+                return True
             if is_frame:
                 frames[k // every, -1] = clock() - tic
             self._progress = (row, k // every + 1)
             if bar is not None and k % 1000 == 0 and k:
                 bar.update(1000)
-        return row, last // every + 1
+        return False

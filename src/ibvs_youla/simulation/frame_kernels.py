@@ -45,7 +45,7 @@ __all__ = [
     "DEPTH_MEASURED",
     "DEPTH_TRIANGULATED",
     "exp6_integrate",
-    "free_camera_frame",
+    "free_camera_step",
     "ibvs_twist",
     "kinematic_tick",
     "measure",
@@ -269,10 +269,10 @@ def _record_frame(frames: np.ndarray, index: int, t: float, frame: np.ndarray, n
 
 
 @jit
-def free_camera_frame(
+def free_camera_step(
     k: int,
     T_O_C: np.ndarray,
-    markers_O: np.ndarray,
+    n: int,
     law: np.ndarray,
     params: np.ndarray,
     frame: np.ndarray,
@@ -283,15 +283,12 @@ def free_camera_frame(
     sizes: np.ndarray,
     frames: np.ndarray,
 ) -> int:
-    """Frame k of classical IBVS on the free camera; returns the next free table row, or DECLINED.
+    """Frame k of classical IBVS on the free camera after the frame is measured; the next row or DECLINED.
 
-    Measures into ``frame``, the law into ``twist`` and ``gain`` (1,), the sample into ``table`` (row
+    The law on ``frame`` (n points) into ``twist`` and ``gain`` (1,), the sample into ``table`` (row
     ``row``, when kept: every record_every-th tick and the last) and the frame log, then T_O_C <-
     T_O_C exp(dt [v]^) unless k is the last tick.
     """
-    n = markers_O.shape[0]
-    if not measure(T_O_C, markers_O, params, frame):
-        return DECLINED
     lam = ibvs_twist(frame, n, law, params, twist)
     if not (math.isfinite(lam) and _finite(twist)):
         return DECLINED  # the plug-in loop raises its error (an invalid command, a diverging plant)
@@ -314,6 +311,7 @@ def free_camera_frame(
 def kinematic_tick(
     k: int,
     is_frame: bool,
+    measured: bool,
     T_O_C: np.ndarray,
     J_C: np.ndarray,
     state: np.ndarray,
@@ -332,8 +330,9 @@ def kinematic_tick(
     """Tick k of classical IBVS on the kinematic arm; returns the next free table row, or DECLINED.
 
     ``state`` (4, n): true joints q_true, encoders q = q_true - d, speeds dq and the offset d [rad,
-    rad/s], advanced in place. On a frame tick (``is_frame``), the frame measured from T_O_C and the
-    law into ``twist`` and ``gain``, logged at ``frame_index``; then every tick
+    rad/s], advanced in place. On a frame tick (``is_frame``), the frame measured from T_O_C (unless
+    ``measured``: ``frame`` holds it already) and the law into ``twist`` and ``gain``, logged at
+    ``frame_index``; then every tick
     dq_ref = J_C^+ [v; w] (the actuation's damped pseudo-inverse, J_C (6, n) at the encoders), the
     sample (encoders, true joints, speeds, twist, dq_ref, gain; T_O_C must be the pose at q_true
     when the sample is kept) and, unless k is the last tick, q_true <- q_true + dt dq_ref.
@@ -342,7 +341,7 @@ def kinematic_tick(
     dt, n_ticks = params[_DT], int(params[_N_TICKS])
     t = k * dt
     if is_frame:
-        if not measure(T_O_C, markers_O, params, frame):
+        if not measured and not measure(T_O_C, markers_O, params, frame):
             return DECLINED
         lam = ibvs_twist(frame, n, law, params, twist)
         if not (math.isfinite(lam) and _finite(twist)):

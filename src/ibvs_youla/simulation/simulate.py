@@ -54,7 +54,7 @@ from .results import SimulationResult, software_versions
 from .sensor import MarkerSensor
 from .settings import SimulationSettings
 
-__all__ = ["PLANTS", "SENSORS", "Beliefs", "default_camera", "simulate"]
+__all__ = ["PLANTS", "SENSORS", "Beliefs", "PreparedRun", "default_camera", "prepare_run", "simulate"]
 
 LOOPS = ("auto", "plug-in")
 SENSORS = ("ideal", "depth", "images")
@@ -228,9 +228,111 @@ def simulate(
         SimulationDivergedError: a state left its bounds (a finite but huge command too);
             ``error.partial`` holds the samples recorded until then.
     """
+    one_of(loop, "loop", LOOPS)
+    progress = flag(progress, "progress")
+    prepared = prepare_run(
+        scenario,
+        controller,
+        adaptive,
+        duration,
+        plant=plant,
+        camera=camera,
+        settings=settings,
+        arm=arm,
+        beliefs=beliefs,
+        sensor=sensor,
+        disturbances=disturbances,
+    )
+    return prepared.run(loop, progress)
+
+
+@dataclass
+class PreparedRun:
+    """The four roles of one run, assembled and checked by :func:`prepare_run`, ready to run once.
+
+    Attributes:
+        controller: Already reset with its task.
+        sensor: What measures each frame (the true ``MarkerSensor``, or what wraps or replaces it).
+        plant: The true plant.
+        chain: The actuation adapters from the controller's command to the plant's.
+        dt: Tick period [s].
+        n_ticks: Number of plant steps (the run records ticks 0..n_ticks).
+        ticks_per_frame: Ticks per camera frame.
+        record_every: Keep every n-th tick sample (and the last).
+        recorder: Receives the samples; its metadata is the run's.
+        command_signals: Names under which each command along the chain is recorded.
+        command_type: The controller's command type (checked once, before the run).
+        declared_shapes: The shapes of the controller's own signals (checked once, before the run).
+        label: The progress bar's label (the scenario's name).
+    """
+
+    controller: Controller
+    sensor: Any
+    plant: Any
+    chain: list[Any]
+    dt: float
+    n_ticks: int
+    ticks_per_frame: int
+    record_every: int
+    recorder: ResultRecorder
+    command_signals: tuple[str, ...]
+    command_type: CommandType
+    declared_shapes: dict[str, tuple[int, ...]]
+    label: str
+
+    @property
+    def roles(self) -> tuple[Any, ...]:
+        """The loops' arguments (controller, sensor, plant, chain, dt, n_ticks, ticks_per_frame, ...)."""
+        return (
+            self.controller,
+            self.sensor,
+            self.plant,
+            self.chain,
+            self.dt,
+            self.n_ticks,
+            self.ticks_per_frame,
+            self.record_every,
+        )
+
+    def run(self, loop: str = "auto", progress: bool = False) -> SimulationResult:
+        """The run's result: the compiled frame path when ``loop="auto"`` covers it, else the plug-in loop.
+
+        As :func:`simulate` (its ``loop`` and ``progress``; its errors from the loop).
+        """
+        compiled = CompiledLoop.covering(*self.roles, self.recorder) if loop == "auto" else None
+        if compiled is not None:
+            self.recorder.metadata["loop"] = "compiled"
+            result = compiled.run(progress, self.label)
+            if result is not None:
+                return result
+        self.recorder.metadata["loop"] = "plug-in"  # the roles' loop; also where the compiled one declined
+        return ServoLoop(
+            *self.roles, self.recorder, self.command_signals, self.command_type, self.declared_shapes
+        ).run(progress, self.label)
+
+
+def prepare_run(
+    scenario: Scenario,
+    controller: str | Controller = "ff+fb",
+    adaptive: bool = True,
+    duration: float = 10.0,
+    *,
+    plant: str = "dynamic",
+    camera: StereoCamera | PinholeCamera | None = None,
+    settings: SimulationSettings | None = None,
+    arm: Arm | None = None,
+    beliefs: Beliefs | None = None,
+    sensor: str | Callable[[MarkerSensor], Any] | None = None,
+    disturbances: Disturbances | None = None,
+) -> PreparedRun:
+    """The roles of one run of :func:`simulate`, assembled and checked, not yet run.
+
+    The arguments, their checks and errors are :func:`simulate`'s (all but ``progress`` and
+    ``loop``, which choose how to run it): ``simulate(...)`` is ``prepare_run(...).run(loop,
+    progress)``. Each call builds new roles: a prepared run runs once.
+    """
     duration = positive(duration, "duration", unit="s")
     one_of(plant, "plant", PLANTS)
-    one_of(loop, "loop", LOOPS)
     for name, value, kind in (
         ("scenario", scenario, Scenario),
         ("settings", settings, SimulationSettings),
@@ -242,7 +344,7 @@ def simulate(
         if not (isinstance(value, kind) or (value is None and name != "scenario")):
             valid = " or ".join(k.__name__ for k in (kind if isinstance(kind, tuple) else (kind,)))
             raise InvalidParameterError(name, type(value).__name__, f"a {valid}")
-    adaptive, progress = flag(adaptive, "adaptive"), flag(progress, "progress")
+    adaptive = flag(adaptive, "adaptive")
     settings = SimulationSettings() if settings is None else settings
     beliefs = Beliefs() if beliefs is None else beliefs
     disturbances = Disturbances() if disturbances is None else disturbances
@@ -362,16 +464,21 @@ def simulate(
         signals=shapes,
         metadata=metadata,
     )
-    label = scenario.name or "simulate"
-    roles = (ctrl, measuring, world.plant, chain, world.dt, n_ticks, world.ticks_per_frame, record_every)
-    compiled = CompiledLoop.covering(*roles, recorder) if loop == "auto" else None
-    if compiled is not None:
-        recorder.metadata["loop"] = "compiled"
-        result = compiled.run(progress, label)
-        if result is not None:
-            return result
-    recorder.metadata["loop"] = "plug-in"  # the roles' loop; also where the compiled one declined
-    return ServoLoop(*roles, recorder, command_signals, command_type, declared_shapes).run(progress, label)
+    return PreparedRun(
+        ctrl,
+        measuring,
+        world.plant,
+        chain,
+        world.dt,
+        n_ticks,
+        world.ticks_per_frame,
+        record_every,
+        recorder,
+        command_signals,
+        command_type,
+        declared_shapes,
+        scenario.name or "simulate",
+    )
 
 
 def _scene_for(ctrl: Controller, scenario: Scenario) -> Any:

@@ -20,6 +20,7 @@ __all__ = [
     "CONTROLLERS",
     "FAMILIES",
     "MAP_AXES",
+    "MOUNTS",
     "MOUNT_FAMILIES",
     "PLANTS",
     "ROBOTS",
@@ -32,6 +33,7 @@ __all__ = [
 
 # Defined here, imported by the modules that use them.
 PLANTS: tuple[str, ...] = ("dynamic", "kinematic", "free-camera")  # ibvs_youla.simulate's plants
+MOUNTS: tuple[str, ...] = ("eye-in-hand", "eye-to-hand")  # ibvs_youla.model.mount's kinds
 CAMERA_KINDS: tuple[str, ...] = ("stereo", "mono", "normalized", "pinhole")  # a campaign's cameras
 FAMILIES: tuple[str, ...] = (
     "arm-physical",

@@ -47,7 +47,10 @@ invalid value raises :class:`~ibvs_youla.exceptions.ConfigError` naming the key
 Without ``preset`` a ``[scenario]`` table must give ``q_start_deg``, ``q_target_deg``
 and ``markers_O`` (joint vectors of the arm's n >= 6 joints), or ``seed`` alone: the
 seeded scenario of :func:`ibvs_youla.scenarios.for_arm` for the ``[arm]`` (markers in
-front of the camera near the robot's home configuration). Joint angles are in degrees, as
+front of the camera near the robot's home configuration). ``mount = "eye-to-hand"``, alone or
+with ``seed``, makes it the arm's seeded eye-to-hand scenario instead
+(:func:`ibvs_youla.scenarios.eye_to_hand`: a camera fixed in front of the arm, markers on its
+flange); a table of joints and markers is eye-in-hand. Joint angles are in degrees, as
 in the paper's Table 1; everything else is SI. The arm's joint limits and size are checked
 when the scenario is simulated (``Scenario.validate_for``), since that needs the arm model.
 ``[settings] secondary_task = { kind = "joint_limit_avoidance", rho = 0.1 }`` turns on the
@@ -67,6 +70,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from . import catalog
 from . import scenarios as _scenarios
 from .exceptions import (
     ConfigError,
@@ -218,6 +222,7 @@ _SCENARIO_KEYS: dict[str, Check] = {
     "joint_offset_deg": _vector(6, scalar_ok=True, at_least=True),
     "virtual_points": _boolean,
     "seed": _integer,
+    "mount": _choice(*catalog.MOUNTS),
 }
 
 
@@ -319,6 +324,8 @@ class RunConfig:
         source: Where it was read from (a path, or ``"<dict>"``).
         scenario_seed: ``[scenario] seed``: the seed of :func:`ibvs_youla.scenarios.for_arm`
             for the arm (then :attr:`scenario` is None), or None.
+        scenario_mount: ``[scenario] mount`` (``"eye-in-hand"`` or ``"eye-to-hand"``: the arm's
+            seeded scenario of that mount; then :attr:`scenario` is None), or None.
     """
 
     scenario: Scenario | None
@@ -331,6 +338,7 @@ class RunConfig:
     arm_options: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     source: str = "<dict>"
     scenario_seed: int | None = None
+    scenario_mount: str | None = None
 
     def make_camera(self) -> StereoCamera:
         """The stereo camera of ``[camera]`` (default: ``simulate``'s, the paper's ZED 2 in VGA mode)."""
@@ -477,7 +485,15 @@ def parse_config(
     run = _table(data, "run", _run_keys())
     if "duration" in run and run["duration"] <= 0.0:
         raise ConfigError("run.duration", run["duration"], "a finite number > 0 s")
+    mount = scenario_values.pop("mount", None)
     seed = scenario_values.pop("seed", None)
+    if mount is not None and scenario_values:
+        raise ConfigError(
+            "scenario.mount",
+            mount,
+            "a mount alone in [scenario] or with scenario.seed (the arm's seeded scenario of that mount); "
+            f"a table of joints and markers is eye-in-hand: remove {', '.join(sorted(scenario_values))}",
+        )
     if seed is not None and (seed < 0 or scenario_values):
         raise ConfigError(
             "scenario.seed",
@@ -491,7 +507,9 @@ def parse_config(
     if "urdf" in arm and source != "<dict>":
         arm["urdf"] = str(Path(source).parent / arm["urdf"])
     return RunConfig(
-        scenario=_scenario(scenario_values) if "scenario" in data and seed is None else None,
+        scenario=_scenario(scenario_values)
+        if "scenario" in data and seed is None and mount is None
+        else None,
         settings=_settings(settings_values, _choice(*SETTINGS_PRESETS)("settings_preset", settings_preset)),
         controller=run.get("controller"),
         plant=run.get("plant"),
@@ -501,6 +519,7 @@ def parse_config(
         arm_options=arm,
         source=source,
         scenario_seed=seed,
+        scenario_mount=mount,
     )
 
 

@@ -557,7 +557,7 @@ def eye_to_hand(
         rays_xy: Normalized image coordinates (3, 2) of the markers in the target image.
         joint_offset_deg: The unseen encoder offset d on every revolute joint [deg] (ERRATA 14).
         camera: The camera the markers must be visible to; default ``default_camera()``.
-        name: The scenario's name; default ``"<robot>-<seed>"``.
+        name: The scenario's name; default ``"<robot>-<seed>-eye-to-hand"``.
         carrier_frame: The frame of the arm's last link carrying the markers; default the flange.
 
     Raises:
@@ -638,6 +638,8 @@ def _mounted_draw(
     offset = np.where(periodic, np.radians(joint_offset_deg), 0.0)
     rng = np.random.default_rng(seed)
     label = name if name is not None else f"{getattr(arm, 'robot', None) or arm.name}-{seed}"
+    # unnamed, a lone eye-to-hand scenario says so (for_arm's of the same seed is eye-in-hand)
+    own_name = name is None and mounts == (EYE_TO_HAND,)
     for _ in range(200):
         q_target = np.clip(q_center + spread * rng.uniform(-1.0, 1.0, n), lo, hi)
         q_start = np.clip(q_target + step * rng.uniform(-1.0, 1.0, n), lo, hi)
@@ -664,7 +666,7 @@ def _mounted_draw(
                     q_start=q_start,
                     q_target=q_target,
                     joint_offset=offset,
-                    name=f"{label}-{kind}" if len(mounts) > 1 else label,
+                    name=f"{label}-{kind}" if len(mounts) > 1 or own_name else label,
                     description=(
                         f"{arm.name}, {kind}: target within +-{spread_deg:g} deg of "
                         f"{'q_center' if name else 'home'}, start +-{step_deg:g} deg from it, markers at "

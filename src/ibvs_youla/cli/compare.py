@@ -12,7 +12,9 @@ gans2003`` runs every task of :mod:`ibvs_youla.analysis.suites`. The metrics are
 ``--robot NAME`` or ``--urdf FILE`` (with the mount options) runs the arm scenario on that arm:
 without ``--scenario``, its seeded scenario (:func:`ibvs_youla.scenarios.for_arm`, ``--seed``);
 the named scenarios are the IRB 4600's, and the suite's tasks and the textured plane are the free
-camera's, so those refuse another arm (exit 2).
+camera's, so those refuse another arm (exit 2). ``--mount eye-to-hand`` (without ``--scenario``)
+compares on the arm's seeded eye-to-hand scenario (:func:`ibvs_youla.scenarios.eye_to_hand`: a
+camera fixed in front of the arm, the markers on its flange).
 A ``--duration`` or ``--camera-rate`` that the simulator refuses stops the comparison before
 any method runs (exit 2), rather than giving every method a 'rejected' row.
 """
@@ -39,11 +41,17 @@ FLAGS = {
 
 def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
     """Check the plant and arm against the scenario or suite; return the function that runs the comparison."""
-    given = [ARM_FLAGS[k] for k in arm_flags(args)]
+    given = [ARM_FLAGS[k] for k in arm_flags(args)] + (["--mount"] if args.mount is not None else [])
     if args.scenario is None and args.suite is None and not given:
         raise UsageError(
-            "one of the arguments --scenario --suite is required (or --robot NAME / --urdf FILE: the arm's "
-            "seeded scenario)"
+            "one of the arguments --scenario --suite is required (or --robot NAME / --urdf FILE / --mount: "
+            "the arm's seeded scenario)"
+        )
+    if args.mount == "eye-to-hand" and (args.scenario is not None or args.suite is not None):
+        what = f"--suite {args.suite}" if args.suite is not None else f"--scenario {args.scenario}"
+        raise UsageError(
+            f"argument --mount: received 'eye-to-hand' with {what}, whose camera is not fixed in the cell; "
+            "valid: leave --scenario and --suite out for the arm's seeded eye-to-hand scenario (--seed)"
         )
     free = args.suite is not None or args.scenario in (*catalog.SUITE_TASKS, catalog.TEXTURED_SCENARIO)
     on_free_camera = args.suite is not None or args.scenario in catalog.SUITE_TASKS
@@ -103,9 +111,8 @@ def _run_scenario(args: argparse.Namespace, arm: Any) -> int:
         names = args.controllers or _without_image_methods(suites.twist_controllers())
     else:
         camera = default_camera()
-        scenario = (
-            scenarios.get(name) if name is not None else scenarios.for_arm(arm, args.seed or 0, camera=camera)
-        )
+        seeded = scenarios.eye_to_hand if args.mount == "eye-to-hand" else scenarios.for_arm
+        scenario = scenarios.get(name) if name is not None else seeded(arm, args.seed or 0, camera=camera)
         name = scenario.name
         plant = args.plant or "dynamic"
         settings = None if args.camera_rate is None else SimulationSettings(camera_rate_hz=args.camera_rate)

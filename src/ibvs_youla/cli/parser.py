@@ -280,7 +280,19 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
         help="without --scenario or a [scenario]: the seed of the arm's scenario (markers in front of the "
         "camera near the robot's home configuration, scenarios.for_arm; default 0)",
     )
+    _add_mount_option(p)
     _add_arm_options(p, "to simulate", config=True)
+
+
+def _add_mount_option(p: argparse.ArgumentParser) -> None:
+    """``--mount``: where the camera is (simulate, view, compare)."""
+    p.add_argument(
+        "--mount",
+        choices=catalog.MOUNTS,
+        help="eye-in-hand (default: the camera on the arm) or eye-to-hand: a camera fixed in front of the "
+        "arm watching markers on its flange, the arm's seeded eye-to-hand scenario (scenarios.eye_to_hand, "
+        "--seed; docs/eye-to-hand.md); the named scenarios are eye-in-hand",
+    )
 
 
 def _add_arm_options(p: argparse.ArgumentParser, what: str, *, config: bool = False) -> None:
@@ -422,6 +434,7 @@ def _add_compare(p: argparse.ArgumentParser) -> None:
         help="the seed of the arm's scenario (with --robot or --urdf and no --scenario: markers in front of "
         "the camera near the robot's home configuration, scenarios.for_arm; default 0)",
     )
+    _add_mount_option(p)
     _add_arm_options(p, "of an arm scenario (the suite's tasks and the textured plane are the free camera's)")
 
 

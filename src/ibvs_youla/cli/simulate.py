@@ -26,12 +26,15 @@ def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any
 
     The arm is the flags' (``--robot``, ``--urdf``, the mount) over the config's ``[arm]``,
     default the IRB 4600; the scenario ``--scenario`` (the IRB 4600's), the config's
-    ``[scenario]``, or, with an arm given and no scenario named, the arm's seeded scenario
-    (:func:`ibvs_youla.scenarios.for_arm`, ``--seed`` or ``[scenario] seed``).
+    ``[scenario]``, or, with an arm or a mount given and no scenario named, the arm's seeded
+    scenario (:func:`ibvs_youla.scenarios.for_arm`, ``--seed`` or ``[scenario] seed``; eye-to-hand,
+    ``--mount eye-to-hand`` or ``[scenario] mount``: :func:`ibvs_youla.scenarios.eye_to_hand`).
 
     Raises:
-        UsageError: no scenario, a named scenario on another arm, ``--seed`` with a scenario, or a
-            controller that cannot drive the plant (the free camera takes camera twists only).
+        UsageError: no scenario, a named scenario on another arm, ``--seed`` with a scenario, an
+            eye-to-hand mount with a scenario of joints and markers (those are eye-in-hand) or on the
+            free camera, or a controller that cannot drive the plant (the free camera takes camera
+            twists only).
     """
     from .. import controllers
     from .. import scenarios as _scenarios
@@ -42,6 +45,18 @@ def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any
     camera = default_camera_of(cfg)
     arm_given = bool(arm_flags(args)) or (cfg is not None and bool(cfg.arm_options))
     seed = None if cfg is None else cfg.scenario_seed
+    mount = getattr(args, "mount", None) or (None if cfg is None else cfg.scenario_mount) or "eye-in-hand"
+    if mount == "eye-to-hand" and (
+        args.scenario is not None or (cfg is not None and cfg.scenario is not None)
+    ):
+        what = (
+            f"--scenario {args.scenario}" if args.scenario is not None else f"the [scenario] of {args.config}"
+        )
+        raise UsageError(
+            f"argument --mount: received 'eye-to-hand' with {what}, an eye-in-hand scenario (markers "
+            "fixed in the base); valid: leave the scenario out for the arm's seeded eye-to-hand scenario "
+            "(--seed)"
+        )
     if args.seed is not None and (
         args.scenario is not None or (cfg is not None and cfg.scenario is not None)
     ):
@@ -59,8 +74,9 @@ def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any
         scenario = _scenarios.get(args.scenario)
     elif cfg is not None and cfg.scenario is not None:
         scenario = cfg.scenario
-    elif args.seed is not None or seed is not None or arm_given:
-        scenario = _scenarios.for_arm(arm, args.seed if args.seed is not None else (seed or 0), camera=camera)
+    elif args.seed is not None or seed is not None or arm_given or mount == "eye-to-hand":
+        seeded = _scenarios.eye_to_hand if mount == "eye-to-hand" else _scenarios.for_arm
+        scenario = seeded(arm, args.seed if args.seed is not None else (seed or 0), camera=camera)
     else:
         raise UsageError(
             f"{args.command}: give --scenario NAME ({', '.join(catalog.SCENARIOS)}), --config FILE with a "
@@ -80,6 +96,11 @@ def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any
         "duration": pick(args.duration, "duration", 10.0),
         "settings": None if cfg is None else cfg.settings,
     }
+    if kwargs["plant"] == "free-camera" and scenario.is_eye_to_hand:
+        raise UsageError(
+            f"{args.command}: an eye-to-hand scenario moves the arm that carries the markers; valid: an arm "
+            "plant (--plant dynamic or kinematic)"
+        )
     if kwargs["plant"] == "free-camera":
         command = controllers.make(kwargs["controller"]).command_type
         if command is not CommandType.CAMERA_TWIST:

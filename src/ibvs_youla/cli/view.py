@@ -18,7 +18,7 @@ from .simulate import config_keys, resolve_run
 
 FLAGS = RUN_FLAGS  # the run options are simulate's
 
-_ARM_RUN_KEYS = ("q_start", "q_target", "markers_O", "joint_offset", "scenario", "virtual_points")
+_ARM_RUN_KEYS = ("q_start", "q_target", "joint_offset", "scenario", "virtual_points")
 
 
 def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
@@ -48,13 +48,16 @@ def _play(args: argparse.Namespace, run: tuple[Any, ...] | None, arm: Any) -> in
     except ImportError as err:
         raise _ViewUnavailable(err) from None
     from ..model.camera import default_camera
+    from ..model.mount import Mount
     from ..scenarios import Scenario
     from ..simulation.results import SimulationResult
 
     if run is None:
         result = SimulationResult.load(args.result)
         m = result.metadata
-        missing = [k for k in _ARM_RUN_KEYS if k not in m]
+        # the markers: markers_O eye-in-hand; markers_E and the mount eye-to-hand
+        markers = ("markers_E", "mount") if "mount" in m else ("markers_O",)
+        missing = [k for k in (*_ARM_RUN_KEYS, *markers) if k not in m]
         if missing:
             raise DamagedFileError(
                 args.result,
@@ -64,10 +67,12 @@ def _play(args: argparse.Namespace, run: tuple[Any, ...] | None, arm: Any) -> in
         scenario = Scenario(
             m["q_start"],
             m["q_target"],
-            m["markers_O"],
+            m.get("markers_O"),
             m["joint_offset"],
             name=m["scenario"],
             virtual_points=m["virtual_points"],
+            markers_E=m.get("markers_E"),
+            mount=None if "mount" not in m else Mount.from_dict(m["mount"]),
         )
         arm = _result_arm(result.metadata) if arm is None else arm
         camera = default_camera()

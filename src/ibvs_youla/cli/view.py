@@ -18,7 +18,7 @@ from .simulate import config_keys, resolve_run
 
 FLAGS = RUN_FLAGS  # the run options are simulate's
 
-_ARM_RUN_KEYS = ("q_start", "q_target", "joint_offset", "scenario", "virtual_points")
+_ARM_RUN_KEYS = ("q_start", "q_target", "joint_offset", "scenario", "virtual_points")  # and the markers
 
 
 def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
@@ -57,7 +57,8 @@ def _play(args: argparse.Namespace, run: tuple[Any, ...] | None, arm: Any) -> in
         m = result.metadata
         # the markers: markers_O eye-in-hand; markers_E and the mount eye-to-hand
         markers = ("markers_E", "mount") if "mount" in m else ("markers_O",)
-        missing = [k for k in (*_ARM_RUN_KEYS, *markers) if k not in m]
+        keys = (*_ARM_RUN_KEYS[:2], *markers, *_ARM_RUN_KEYS[2:])
+        missing = [k for k in keys if k not in m]
         if missing:
             raise DamagedFileError(
                 args.result,

@@ -2,8 +2,7 @@
 
 Each robot gets one seeded scenario (``iy.scenarios.for_arm(arm, seed=0, step_deg=2)``: the target
 within 10 deg of the home configuration, the start 2 deg per joint from it, markers in front of
-the target camera). Every method runs on the kinematic plant, and on the dynamic plant of four of
-them (DYNAMIC_EVERY_METHOD; the paper's controllers on every one), for 10 s of simulated time
+the target camera). Every method runs on the kinematic and the dynamic plant, for 10 s of simulated time
 (ibvs-partitioned 20 s; EXPECTED_OF_METHOD names the methods that refuse the scenario, and why).
 "Reached" is the campaigns' criterion: status ``complete`` and the final camera pose within 1 mm
 and 0.1 deg. The joint loop runs at 1 kHz with the camera at 100 Hz (the simulator's default),
@@ -40,11 +39,6 @@ EXPECTED_OTHERWISE: dict[tuple[str, str], tuple[str, str]] = {
         "needs (test_the_xarm7_runs_at_the_joint_rate_its_damping_needs)",
     ),
 }
-# the robots whose dynamic plant runs every method: one of each IK (spherical wrist, UR closed form,
-# numerical on a redundant arm, continuous joints); the others run the paper's controllers on it (the
-# twist laws reach the dynamic plant through the same inner loop: their dynamic runs cost the most
-# time of this file and repeat what these four show)
-DYNAMIC_EVERY_METHOD = ("irb4600", "ur5", "panda", "kinova")
 # method -> (its outcome on every robot's scenario, why), before the plant's own (above)
 EXPECTED_OF_METHOD: dict[str, tuple[str, str]] = {
     "ibvs-moments": (
@@ -93,7 +87,6 @@ def test_every_method_reaches_the_target_on_every_named_robot(arms, name):
         (plant, method): _outcome(scenario, method, arm, plant)
         for plant in SETTINGS
         for method in iy.controllers.names()
-        if plant == "kinematic" or name in DYNAMIC_EVERY_METHOD or method in ("fb", "ff+fb")
     }
     expected = {
         (plant, method): EXPECTED_OTHERWISE.get((name, plant), EXPECTED_OF_METHOD.get(method, ("reached",)))[

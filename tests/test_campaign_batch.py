@@ -80,7 +80,8 @@ def test_the_kinematic_arm_with_the_stereo_camera():
 
 @pytest.mark.parametrize("family", ["arm-physical", "arm-eye-to-hand"])
 def test_a_batch_runs_on_the_spec_s_arm_and_mount(family, monkeypatch):
-    """The batch takes each spec's arm (not the IRB 4600) and an eye-to-hand row's J is J_rel's."""
+    """The batch takes each spec's arm (not the IRB 4600); every row is the one run_spec gives (whose
+    eye-to-hand J is J_rel's: tests/test_eye_to_hand_campaign.py)."""
     from ibvs_youla.campaign import run as run_module
     from ibvs_youla.model.arm import Arm
 
@@ -186,3 +187,11 @@ def test_a_batch_that_kills_its_worker_runs_again_run_by_run(tmp_path, monkeypat
     assert summary.errors == 0 and list(rows["case"]) == [0, 1, 2]
     for spec in definition.specs():
         same_row(rows.set_index("key").loc[spec.key].to_dict() | {"key": spec.key}, run_spec(spec))
+
+
+def test_a_spec_that_does_not_read_gets_its_row_and_the_batch_runs_the_others(free_specs):
+    specs = [s.to_json() for s in free_specs if s.controller == "ibvs-desired"][:3]
+    rows = run_specs([specs[0], "{not json", specs[1], specs[2]])
+    assert rows[1]["outcome"] == "error" and "{not json" in rows[1]["spec"]
+    for json_spec, row in zip([specs[0], specs[1], specs[2]], [rows[0], rows[2], rows[3]], strict=True):
+        same_row(row, run_spec(json_spec))

@@ -112,3 +112,18 @@ def test_the_mount_families_draw_and_run_on_the_campaign_s_arm():
     assert spec.arm["robot"] == "ur5" and spec.build()["scenario"].mount.is_eye_to_hand
     row = run_spec(spec)
     assert row["outcome"] == "reached" and row["time_to_reach_s"] == pytest.approx(8.068, abs=0.01)
+
+
+def test_mount_families_on_a_reduced_arm_and_on_an_arm_without_a_home():
+    """A joint locked on request leaves the home configuration's entry out (as for_arm); an arm from a
+    URDF has no home to draw about: refused by name, not as a difficulty no draw meets."""
+    from ibvs_youla.model._resources import example_robot_data_urdf
+
+    panda = Arm.from_robot("panda", locked_joints={"panda_joint7": 0.785})
+    (case,) = generate_cases("arm-eye-to-hand", 1, 0, arm=panda)
+    assert len(case.scenario["q_target"]) == 6
+    urdf_arm = Arm.from_urdf(
+        example_robot_data_urdf("ur_description/urdf/ur5_robot.urdf"), camera_frame="tool0"
+    )
+    with pytest.raises(InvalidParameterError, match=r"a named robot .* for the family 'arm-eye-to-hand'"):
+        generate_cases("arm-eye-to-hand", 1, 0, arm=urdf_arm)

@@ -63,7 +63,7 @@ def test_a_toml_scenario_mount_chooses_the_eye_to_hand_scenario(capsys, tmp_path
     assert result.metadata["mount"] == expected.mount.to_dict()
     assert result.metadata["arm_identity"]["robot"] == "ur5"
     config.write_text('[scenario]\nmount = "eye-to-hand"\npreset = "paper-1"\n')
-    with pytest.raises(ConfigError, match=r"scenario\.mount.*eye-in-hand: remove preset"):
+    with pytest.raises(ConfigError, match=r"scenario\.mount.*\(which is eye-in-hand\): remove preset"):
         load_config(config)
     code, _, err = run(capsys, "simulate", "--config", config, *SHORT, "--out", tmp_path / "bad")
     assert code == 2 and "scenario.mount" in err
@@ -100,8 +100,11 @@ def test_compare_mount_eye_to_hand_compares_on_the_eye_to_hand_scenario(capsys, 
     code, text, err = run(capsys, "compare", "--robot", "irb4600", *argv, "--out", tmp_path / "i")
     assert code == 0, err
     assert not text.startswith(f"{name} ")  # without the mount: the eye-in-hand scenario
-    table = json.loads(next((tmp_path / "e").glob("*.json")).read_text())
-    assert table  # the comparison was written
+    table = json.loads((tmp_path / "e" / "table.json").read_text())
+    assert table["scenario"] == name and [row["controller"] for row in table["rows"]] == [
+        "ibvs-current",
+        "pbvs",
+    ]
 
 
 class _FakeViewer:
@@ -133,3 +136,50 @@ def test_view_plays_a_saved_eye_to_hand_run_with_its_mount(capsys, tmp_path, mon
     code, _, err = run(capsys, "view", "--mount", "eye-to-hand", *SHORT[:-1], "--no-wait")
     assert code == 0, err
     assert _FakeViewer.last.scenario.is_eye_to_hand
+
+
+def test_an_eye_in_hand_mount_alone_chooses_the_seeded_eye_in_hand_scenario(capsys, tmp_path):
+    """``--mount eye-in-hand`` (or ``[scenario] mount``) alone: the arm's seeded scenario, as ``--seed 0``."""
+    code, _, err = run(capsys, "simulate", "--mount", "eye-in-hand", *SHORT, "--out", tmp_path / "flag")
+    assert code == 0, err
+    config = tmp_path / "e2h.toml"
+    config.write_text('[scenario]\nmount = "eye-to-hand"\n')
+    code, _, err = run(
+        capsys, "simulate", "--config", config, "--mount", "eye-in-hand", *SHORT, "--out", tmp_path / "over"
+    )
+    assert code == 0, err  # the flag over the file's mount
+    for folder in ("flag", "over"):
+        result = SimulationResult.load(tmp_path / folder / "result.npz")
+        assert result.metadata["scenario"] == iy.scenarios.for_arm(Arm.irb4600(), 0).name
+        assert "mount" not in result.metadata
+    config.write_text('[scenario]\nmount = "eye-in-hand"\npreset = "paper-1"\n')  # consistent: the table
+    assert load_config(config).scenario.name == "paper-1"
+    config.write_text('[scenario]\nmount = "eye-to-hand"\n')
+    code, _, err = run(capsys, "simulate", "--config", config, "--scenario", "paper-1", *SHORT)
+    assert code == 2 and f"scenario.mount in {config}: received 'eye-to-hand' with --scenario paper-1" in err
+
+
+def test_view_of_a_saved_run_refuses_a_mount(capsys, tmp_path):
+    code, _, err = run(capsys, "view", "--result", tmp_path / "r.npz", "--mount", "eye-to-hand", "--no-wait")
+    assert code == 2 and "--scenario/--config/--seed/--mount, not both" in err
+
+
+def test_an_arm_without_a_home_configuration_needs_its_scenario(capsys, tmp_path):
+    """A URDF arm has no home to draw a seeded scenario about: simulate and compare say what to give."""
+    from ibvs_youla.model._resources import example_robot_data_urdf
+
+    urdf = example_robot_data_urdf("ur_description/urdf/ur5_robot.urdf")
+    for command in ("simulate", "compare"):
+        argv = (
+            command,
+            "--urdf",
+            urdf,
+            "--camera-frame",
+            "tool0",
+            "--mount",
+            "eye-to-hand",
+            "--plant",
+            "kinematic",
+        )
+        code, _, err = run(capsys, *argv, "--out", tmp_path / command)
+        assert code == 2 and "has no home configuration" in err, err

@@ -245,6 +245,19 @@ def test_a_signal_before_the_loop_records_anything_is_still_an_interrupt(monkeyp
     assert isinstance(err.value.partial, iy.BatchResult) and len(err.value.partial) == 0
 
 
+def test_a_signal_while_the_cases_are_prepared_is_an_interrupt_with_nothing_recorded(monkeypatch):
+    from ibvs_youla.simulation import batch
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt("signal SIGTERM")
+
+    monkeypatch.setattr(batch, "prepare_run", interrupted)
+    kwargs = dict(plant="free-camera", camera=iy.PinholeCamera.normalized(), duration=1.0, settings=RATE_25)
+    with pytest.raises(KeyboardInterrupt) as err:
+        iy.simulate_batch(free_cases(2), "ibvs-mean", sensor="depth", **kwargs)
+    assert isinstance(err.value.partial, iy.BatchResult) and len(err.value.partial) == 0
+
+
 def test_ctrl_c_keeps_what_every_case_recorded(monkeypatch):
     from ibvs_youla.simulation import batch_loop
 

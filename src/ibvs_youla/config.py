@@ -487,29 +487,31 @@ def parse_config(
         raise ConfigError("run.duration", run["duration"], "a finite number > 0 s")
     mount = scenario_values.pop("mount", None)
     seed = scenario_values.pop("seed", None)
-    if mount is not None and scenario_values:
+    if mount == "eye-to-hand" and scenario_values:
         raise ConfigError(
             "scenario.mount",
             mount,
-            "a mount alone in [scenario] or with scenario.seed (the arm's seeded scenario of that mount); "
-            f"a table of joints and markers is eye-in-hand: remove {', '.join(sorted(scenario_values))}",
+            "'eye-to-hand' alone in [scenario] or with scenario.seed (the arm's seeded eye-to-hand "
+            "scenario), or 'eye-in-hand' with a table of joints and markers (which is eye-in-hand): "
+            f"remove {', '.join(sorted(scenario_values))}",
         )
     if seed is not None and (seed < 0 or scenario_values):
         raise ConfigError(
             "scenario.seed",
             seed,
-            "an integer >= 0, alone in [scenario] (the seeded scenario of the [arm], scenarios.for_arm)"
+            "an integer >= 0, alone in [scenario] or with scenario.mount (the seeded scenario of the "
+            "[arm], scenarios.for_arm or scenarios.eye_to_hand)"
             + (f"; remove {', '.join(sorted(scenario_values))}" if scenario_values else ""),
         )
+    # the table's own scenario, unless it only chooses the seeded one (a seed, a mount, or both)
+    own_table = "scenario" in data and seed is None and (mount is None or bool(scenario_values))
     arm = _table(data, "arm", _arm_keys())
     if "robot" in arm and "urdf" in arm:
         raise ConfigError("arm.urdf", arm["urdf"], f"no urdf with arm.robot = {arm['robot']!r}: one of them")
     if "urdf" in arm and source != "<dict>":
         arm["urdf"] = str(Path(source).parent / arm["urdf"])
     return RunConfig(
-        scenario=_scenario(scenario_values)
-        if "scenario" in data and seed is None and mount is None
-        else None,
+        scenario=_scenario(scenario_values) if own_table else None,
         settings=_settings(settings_values, _choice(*SETTINGS_PRESETS)("settings_preset", settings_preset)),
         controller=run.get("controller"),
         plant=run.get("plant"),

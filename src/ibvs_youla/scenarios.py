@@ -622,7 +622,7 @@ def _mounted_draw(
             raise InvalidParameterError(
                 "q_center", None, f"a configuration ({n},): the arm has no home configuration"
             )
-        q_center = get(arm.robot).q_home
+        q_center = _home_of(arm, np.asarray(get(arm.robot).q_home, dtype=float))
     q_center = as_array(q_center, "q_center", (n,))
     rays_xy = as_array(rays_xy, "rays_xy", (None, 2))
     depths = as_array(depths, "depths", (rays_xy.shape[0],))

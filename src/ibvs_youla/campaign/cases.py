@@ -187,6 +187,13 @@ def generate_cases(
 
         arm = Arm.irb4600() if arm is None else instance(arm, "arm", Arm, "an Arm, or None (the IRB 4600)")
     if family in MOUNT_FAMILIES:
+        if arm.robot is None:  # mount_pair draws the target about the robot's home configuration
+            raise InvalidParameterError(
+                "arm",
+                arm.name,
+                f"a named robot (Arm.from_robot, --robot) for the family {family!r}: its cases are drawn "
+                "about the robot's home configuration, which an arm from a URDF does not have",
+            )
         return tuple(_mount_case(family, k, s, difficulty, arm) for k, s in enumerate(streams))
     if family in ARM_FAMILIES:
         from ..model.camera import default_camera
@@ -291,7 +298,9 @@ def _mount_case(family: str, index: int, stream: np.random.SeedSequence, difficu
 
     try:
         pair = mount_pair(arm, stream, step_deg=MOUNT_STEP_DEG * difficulty, name=f"{family}-{index}")
-    except InvalidParameterError:
+    except InvalidParameterError as err:
+        if err.name != "seed":  # not the rules rejecting every draw: the error says what is wrong
+            raise
         raise _undrawable(family, index, difficulty) from None
     scenario = pair[MOUNT_FAMILIES.index(family)]
     view = mounted(arm, scenario.mount)

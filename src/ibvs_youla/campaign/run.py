@@ -11,12 +11,13 @@ thread (its Pinocchio data is per thread already; building it costs 50-300 ms); 
 robot description cannot be loaded is an ``"error"`` row.
 
 :func:`run_specs` runs several specs that differ only in their case (:func:`batch_key`: one method,
-plant, camera, settings and duration, any disturbances but their seed) in one
+plant, camera, settings, arm and duration, any disturbances but their seed) in one
 :func:`~ibvs_youla.simulate_batch` call, which gives each case the result ``simulate()`` gives it, so
 each row is the one :func:`run_spec` returns (but for the measured times: a row's ``wall_s`` is its
 share of the batch). What the batch does not give as ``run_spec`` does is run by ``run_spec``: a spec
-of another key, a case that ended with an error (its row carries the error's type and message), a
-batch that raises (each of its specs then runs alone, and a bad one gets its own error row).
+of another key or one that does not read, a case that ended with an error (its row carries the
+error's type and message), a batch that raises (each of its specs then runs alone, and a bad one
+gets its own error row).
 """
 
 from __future__ import annotations
@@ -61,7 +62,8 @@ def run_spec_with_result(spec: ExperimentSpec | str) -> tuple[dict[str, Any], An
     except SimulationDivergedError as err:
         if err.partial is None:
             return error_row(spec, err, time.perf_counter() - t0), None
-        return row_from_result(spec, err.partial, arm, time.perf_counter() - t0), err.partial
+        row_arm = _row_arm(arm, kwargs["scenario"])
+        return row_from_result(spec, err.partial, row_arm, time.perf_counter() - t0), err.partial
     except Exception as err:  # every failure becomes a row: the campaign goes on
         return error_row(spec, err, time.perf_counter() - t0), None
     return row_from_result(spec, result, _row_arm(arm, kwargs["scenario"]), time.perf_counter() - t0), result
@@ -97,11 +99,11 @@ def run_specs_with_results(specs: Sequence[ExperimentSpec | str]) -> list[tuple[
 
     Runs of one :func:`batch_key` in one ``simulate_batch`` call (module docstring), the others alone.
     """
-    parsed = [ExperimentSpec.from_json(s) if isinstance(s, str) else s for s in specs]
+    parsed = [_parsed(s) for s in specs]
     out: list[tuple[dict[str, Any], Any] | None] = [None] * len(parsed)
     groups: dict[str, list[int]] = {}
     for i, spec in enumerate(parsed):
-        key = batch_key(spec)
+        key = batch_key(spec) if isinstance(spec, ExperimentSpec) else None  # unreadable: its own row
         if key is None:
             out[i] = run_spec_with_result(spec)
         else:
@@ -117,7 +119,6 @@ _OWN_STATUSES = ("complete", "markers_lost", "estimate_failed")  # what the batc
 
 def _batch(specs: list[ExperimentSpec]) -> list[tuple[dict[str, Any], Any] | None]:
     """Rows and results of specs of one batch key from one simulate_batch call (None: run it alone)."""
-    from ..exceptions import IbvsYoulaError
     from ..simulation.batch import simulate_batch
 
     t0 = time.perf_counter()
@@ -128,7 +129,7 @@ def _batch(specs: list[ExperimentSpec]) -> list[tuple[dict[str, Any], Any] | Non
         disturbances = [b.get("disturbances") for b in built]
         arm = None if specs[0].plant == "free-camera" else arm_from_record(specs[0].arm or None)
         batch = simulate_batch([b["scenario"] for b in built], disturbances=disturbances, arm=arm, **kwargs)
-    except IbvsYoulaError:  # a spec the batch refuses: each runs alone, a bad one gets its error row
+    except Exception:  # a spec the batch refuses (or a bug): each runs alone, a bad one gets its error row
         return [None] * len(specs)
     share = (time.perf_counter() - t0) / len(specs)
     return [
@@ -137,6 +138,16 @@ def _batch(specs: list[ExperimentSpec]) -> list[tuple[dict[str, Any], Any] | Non
         else None
         for spec, b, result in zip(specs, built, batch, strict=True)
     ]
+
+
+def _parsed(spec: Any) -> Any:
+    """The spec of ``spec`` (an ExperimentSpec or its JSON); as given if it does not read (run alone)."""
+    if not isinstance(spec, str):
+        return spec
+    try:
+        return ExperimentSpec.from_json(spec)
+    except Exception:  # run_spec_with_result makes its row (metrics.unreadable_spec_row)
+        return spec
 
 
 def _row_arm(arm: Any, scenario: Any) -> Any:

@@ -72,6 +72,11 @@ def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
             "argument --seed: the seed of the arm's scenario; valid only without --scenario and --suite"
         )
     arm = None if free else resolve_arm(args)
+    if arm is not None and args.scenario is None and arm.robot is None:
+        raise UsageError(
+            f"compare: the arm of {arm.name!r} (a URDF) has no home configuration to draw a seeded "
+            "scenario about; valid: a named robot (--robot), or simulate with a --config [scenario] table"
+        )
     if arm is not None and args.scenario is not None and arm.robot != "irb4600":
         raise UsageError(
             f"argument --scenario: received {args.scenario!r}, a scenario of the IRB 4600 (its joint "

@@ -278,7 +278,8 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
         type=seed,
         metavar="S",
         help="without --scenario or a [scenario]: the seed of the arm's scenario (markers in front of the "
-        "camera near the robot's home configuration, scenarios.for_arm; default 0)",
+        "camera near the robot's home configuration, scenarios.for_arm; with --mount eye-to-hand, "
+        "scenarios.eye_to_hand; default 0)",
     )
     _add_mount_option(p)
     _add_arm_options(p, "to simulate", config=True)

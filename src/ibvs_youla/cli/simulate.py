@@ -45,15 +45,17 @@ def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any
     camera = default_camera_of(cfg)
     arm_given = bool(arm_flags(args)) or (cfg is not None and bool(cfg.arm_options))
     seed = None if cfg is None else cfg.scenario_seed
-    mount = getattr(args, "mount", None) or (None if cfg is None else cfg.scenario_mount) or "eye-in-hand"
+    mount_given = getattr(args, "mount", None) or (None if cfg is None else cfg.scenario_mount)
+    mount = mount_given or "eye-in-hand"
     if mount == "eye-to-hand" and (
         args.scenario is not None or (cfg is not None and cfg.scenario is not None)
     ):
         what = (
             f"--scenario {args.scenario}" if args.scenario is not None else f"the [scenario] of {args.config}"
         )
+        source = "argument --mount" if getattr(args, "mount", None) else f"scenario.mount in {args.config}"
         raise UsageError(
-            f"argument --mount: received 'eye-to-hand' with {what}, an eye-in-hand scenario (markers "
+            f"{source}: received 'eye-to-hand' with {what}, an eye-in-hand scenario (markers "
             "fixed in the base); valid: leave the scenario out for the arm's seeded eye-to-hand scenario "
             "(--seed)"
         )
@@ -74,7 +76,13 @@ def resolve_run(args: argparse.Namespace) -> tuple[Any, dict[str, Any], Any, Any
         scenario = _scenarios.get(args.scenario)
     elif cfg is not None and cfg.scenario is not None:
         scenario = cfg.scenario
-    elif args.seed is not None or seed is not None or arm_given or mount == "eye-to-hand":
+    elif args.seed is not None or seed is not None or arm_given or mount_given:
+        if arm.robot is None:
+            raise UsageError(
+                f"{args.command}: the arm of {arm.name!r} (a URDF) has no home configuration to draw a "
+                "seeded scenario about; valid: its scenario in a --config file's [scenario] table "
+                "(q_start_deg, q_target_deg, markers_O)"
+            )
         seeded = _scenarios.eye_to_hand if mount == "eye-to-hand" else _scenarios.for_arm
         scenario = seeded(arm, args.seed if args.seed is not None else (seed or 0), camera=camera)
     else:

@@ -24,8 +24,10 @@ _ARM_RUN_KEYS = ("q_start", "q_target", "joint_offset", "scenario", "virtual_poi
 def prepare(args: argparse.Namespace, extra: list[str]) -> Callable[[], int]:
     """The run to play (checked now, simulated later), or the result file to load; return the player."""
     if args.result is not None:
-        if args.scenario or args.config or args.seed is not None:
-            raise UsageError("view: give either --result FILE or --scenario/--config/--seed, not both")
+        if args.scenario or args.config or args.seed is not None or args.mount is not None:
+            raise UsageError(
+                "view: give either --result FILE or --scenario/--config/--seed/--mount, not both"
+            )
         arm = resolve_arm(args) if arm_flags(args) else None
         return lambda: _play(args, None, arm)
     run = resolve_run(args)

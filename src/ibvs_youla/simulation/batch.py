@@ -138,7 +138,8 @@ def simulate_batch(
         IncompatibleCommandError, JointLimitError: as :func:`~.simulate.simulate`, for a case.
         KeyboardInterrupt: Ctrl-C, with ``error.partial`` a :class:`BatchResult` of what was recorded:
             every case (status ``"interrupted"`` where it had not ended) during the lockstep loop; the
-            cases before and the one being run during a plug-in rerun.
+            cases before and the one being run during a plug-in rerun; none while the cases are
+            prepared.
     """
     t0 = time.perf_counter()
     if isinstance(scenarios, Scenario) or not isinstance(scenarios, Sequence) or not scenarios:
@@ -187,8 +188,12 @@ def simulate_batch(
             err.add_note(f"in simulate_batch's scenarios[{i}]")
             raise
 
-    loops = [_covered(prepare(i), i, per_disturbances[i]) for i in range(n)]
-    _check_sizes(loops)
+    try:
+        loops = [_covered(prepare(i), i, per_disturbances[i]) for i in range(n)]
+        _check_sizes(loops)
+    except KeyboardInterrupt as err:  # while the cases are prepared: nothing recorded yet
+        err.partial = BatchResult(())  # type: ignore[attr-defined]
+        raise
     first = loops[0]
     recorder = first.recorder
     n_rows = first.n_ticks // first.record_every + 2

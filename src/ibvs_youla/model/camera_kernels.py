@@ -29,7 +29,14 @@ import numpy as np
 from .._jit import jit
 from .camera import MAX_ABS_DEPTH, MIN_ABS_DEPTH, StereoCamera
 
-__all__ = ["camera_parameters", "image_jacobian", "interaction_matrix", "measure_features", "triangulate"]
+__all__ = [
+    "camera_parameters",
+    "image_jacobian",
+    "interaction_matrix",
+    "measure_features",
+    "points_in_camera",
+    "triangulate",
+]
 
 # Layout of the parameter vector of camera_parameters
 _F, _PITCH, _SKEW, _U0, _V0, _U_MAX, _V_MAX, _Z_MIN, _Z_MAX, _BOUNDED, _BASELINE, _D_MIN = range(12)
@@ -66,7 +73,7 @@ def camera_parameters(camera: Any) -> tuple[np.ndarray, np.ndarray]:
 
 
 @jit
-def _points_in_camera(T_O_C: np.ndarray, markers_O: np.ndarray) -> np.ndarray:
+def points_in_camera(T_O_C: np.ndarray, markers_O: np.ndarray) -> np.ndarray:
     """P_C = R^T (P_O - t), rows (n, 3) [m] (Eq. (21)-(22))."""
     n = markers_O.shape[0]
     P = np.empty((n, 3))
@@ -122,7 +129,7 @@ def image_jacobian(
     allow_behind: bool,
 ) -> tuple[np.ndarray, int]:
     """(L(P_C) J_C ((k + 1) n, 6), first point of bad depth or -1) at camera pose T_O_C (Eq. (51))."""
-    L, bad = interaction_matrix(_points_in_camera(T_O_C, markers_O), params, lens_x, allow_behind)
+    L, bad = interaction_matrix(points_in_camera(T_O_C, markers_O), params, lens_x, allow_behind)
     J = np.empty((L.shape[0], J_C.shape[1]))
     if bad >= 0:
         return J, bad

@@ -37,7 +37,7 @@ import numpy as np
 
 from .._jit import jit
 from ..control.svd_kernels import pseudo_inverse_apply, svd_gains
-from ..model.camera_kernels import interaction_matrix, measure_features, triangulate
+from ..model.camera_kernels import interaction_matrix, measure_features, points_in_camera, triangulate
 from .recorder import record_row
 
 __all__ = [
@@ -125,12 +125,7 @@ def measure(T_O_C: np.ndarray, markers_O: np.ndarray, params: np.ndarray, frame:
     """
     n = markers_O.shape[0]
     k = int(params[_N_LENS_TRUE])
-    P = np.empty((n, 3))
-    tx, ty, tz = T_O_C[0, 3], T_O_C[1, 3], T_O_C[2, 3]
-    for i in range(n):
-        dx, dy, dz = markers_O[i, 0] - tx, markers_O[i, 1] - ty, markers_O[i, 2] - tz
-        for j in range(3):
-            P[i, j] = dx * T_O_C[0, j] + dy * T_O_C[1, j] + dz * T_O_C[2, j]
+    P = points_in_camera(T_O_C, markers_O)
     lens_x = params[_TRUE_LENS : _TRUE_LENS + k]
     features, visible, bad = measure_features(P, params[_TRUE : _TRUE + 12], lens_x, params[_VIRTUAL] != 0.0)
     if bad >= 0:

@@ -76,6 +76,15 @@ PASSED_THEN_CHOKED = [
     case(_run(workers=0, batch_rows=2.5), P, "batch_rows", "batch-rows-float"),
     case(_run(workers=0, batch_seconds=math.nan), P, "batch_seconds", "batch-seconds-nan"),
     case(_run(workers=0, batch_seconds=-1.0), P, "batch_seconds", "batch-seconds-negative"),
+    # the paper controller's options in the settings: simulate() refuses them for a controller object
+    case(
+        _campaign(
+            family="arm-physical", plant="dynamic", controllers=("ff+fb",), settings={"feedforward": "smooth"}
+        ),
+        P,
+        "settings",
+        "paper-gains-in-settings",
+    ),
 ]
 
 

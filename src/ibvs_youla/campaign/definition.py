@@ -155,6 +155,7 @@ class CampaignDefinition:
                 "settings", unknown, f"keywords of SimulationSettings ({', '.join(unknown)} is not one)"
             )
         rates = SimulationSettings(**settings)  # raises on a bad value
+        self._check_no_controller_gains(settings)
         put("settings", settings)
         frame_s = (  # one camera frame [s]: the free camera ticks at its frames
             1.0 / (rates.camera_rate_hz or rates.joint_rate_hz)
@@ -215,6 +216,25 @@ class CampaignDefinition:
                     f"controllers that command a camera twist on the free camera ({label!r} commands "
                     f"{kind.value}: it needs an arm family and plant)",
                 )
+
+    @staticmethod
+    def _check_no_controller_gains(settings: Mapping[str, Any]) -> None:
+        """Refuse the paper controller's options in the settings: they go with the method.
+
+        A campaign makes every controller as an object (``controllers.make``), and simulate() refuses
+        those options in the settings of one, so every run would be an error row.
+        """
+        from ..controllers.youla import YoulaSettings
+
+        gains = sorted(k for k in settings if k in YoulaSettings.field_names() and k != "tau_in")
+        if gains:
+            example = f"ff+fb[{gains[0]}={settings[gains[0]]!r}]".replace("'", "")
+            raise InvalidParameterError(
+                "settings",
+                {k: settings[k] for k in gains},
+                f"settings of the run, not the paper controller's options ({', '.join(gains)}): give "
+                f"those with the method, e.g. controllers={example!r} (--controllers on the command line)",
+            )
 
     def _check_image_method(self, label: str) -> None:
         """A method that servoes on the image needs a family with a scene and a camera with pixels."""

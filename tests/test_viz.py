@@ -405,11 +405,18 @@ def test_screenshot_draws_another_arm_from_its_meshes(tmp_path):
     with Viewer(arm) as view:
         view.display(np.asarray(iy_robots.get("ur5").q_home))
         view.set_view(eye)
-        shown = screenshot(view.url, tmp_path / "ur5.png", budget_ms=6000)
         view.set_visible("arm", False)
         hidden = screenshot(view.url, tmp_path / "no_ur5.png", budget_ms=6000)
-    differs = np.abs(shown - hidden).sum(axis=2) > 0.1  # [RGB in 0..1]
-    assert differs.mean() > 0.001, f"{differs.mean():.5f} of the picture differs"
+        view.set_visible("arm", True)
+        # the page fetches the meshes from the server while virtual time runs: on a loaded host (a clean
+        # checkout's suite, both cores busy) 6 s of it drew 0.04 % of the picture, so a page that has
+        # not drawn them yet is loaded again with more time (an arm never drawn fails all three)
+        for budget_ms in (6000, 15000, 30000):
+            shown = screenshot(view.url, tmp_path / "ur5.png", budget_ms=budget_ms)
+            differs = np.abs(shown - hidden).sum(axis=2) > 0.1  # [RGB in 0..1]
+            if differs.mean() > 0.001:
+                break
+    assert differs.mean() > 0.001, f"{differs.mean():.5f} of the picture differs after {budget_ms} ms"
     rows, cols = np.nonzero(differs)
     base = meshcat_pixels(np.zeros((1, 3)), eye)[0]
     centre = (cols.mean(), rows.mean())

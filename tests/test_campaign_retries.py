@@ -11,6 +11,7 @@ the simulated clock.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import re
 import threading
@@ -62,6 +63,9 @@ class FakeCluster:
     # --- client API used by the campaign loop
     def nthreads(self):
         return dict.fromkeys(self.durations, 1)
+
+    def as_current(self):  # the loop waits on this client, not the process's default one
+        return contextlib.nullcontext()
 
     def processing(self):
         return {w: [f.key for f in futures] for w, futures in self.held.items()}

@@ -9,6 +9,7 @@ floats to 1e-12, except the measured times (wall_s, update_median_us, update_p95
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -349,6 +350,64 @@ def test_a_lost_scheduler_is_one_line_and_keeps_the_rows(tmp_path, cluster, proc
     assert not rows["key"].duplicated().any()
 
 
+class _SlowWriter:
+    """A row writer whose first due-time question returns only once ``until()`` holds: the campaign's
+    thread busy between submitting runs and waiting for them."""
+
+    def __init__(self, writer, until):
+        self.writer, self.until, self.asked = writer, until, False
+
+    def __getattr__(self, name):
+        return getattr(self.writer, name)
+
+    def __len__(self):
+        return len(self.writer)
+
+    def seconds_until_due(self):
+        if not self.asked:
+            self.asked = True
+            _wait_for(self.until, 60, "the client to close")
+        return self.writer.seconds_until_due()
+
+
+@pytest.mark.parametrize("closes", ["before the call", "between submitting and waiting"])
+def test_a_client_that_gave_up_reconnecting_is_a_lost_scheduler(tmp_path, processes, closes):
+    """The CI failure of 2026-12-03: the client gave up reconnecting to a killed scheduler and closed
+    while the campaign's thread was busy; Dask's module-level wait() then found no default client ("No
+    clients found", reported as an internal error), and client.map on a closed client raises
+    ClosedClientError. Both are the lost scheduler's one line. A scheduler with no workers keeps the
+    runs pending, and the writer holds the thread until the client closed, so the order is certain."""
+    from ibvs_youla.campaign import storage
+    from ibvs_youla.campaign.runner import SchedulerError
+
+    dask = str(Path(sys.executable).with_name("dask"))
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    command = [dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"]
+    processes.append(subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+    _wait_for(lambda: socket.socket().connect_ex(("127.0.0.1", port)) == 0, 60, "the scheduler to listen")
+    definition = CampaignDefinition(**{**DEFINITION, "cases": 2, "controllers": ("pbvs",)})
+    storage.create_folder(tmp_path, definition.to_dict())
+    summary = runner.CampaignSummary(tmp_path, 2, 0)
+    bar = runner._progress_bar(2, 0, False)
+    client = Client(address, timeout=3)  # gives up reconnecting after 3 s
+    try:
+        closed = lambda: client.status in ("closing", "closed")  # noqa: E731
+        writer = storage.RowWriter(tmp_path, 100, 1e9)
+        processes[-1].send_signal(signal.SIGKILL)
+        processes[-1].communicate(timeout=30)
+        if closes == "before the call":
+            _wait_for(closed, 60, "the client to close")
+        else:
+            writer = _SlowWriter(writer, closed)
+        with pytest.raises(SchedulerError, match=f"scheduler {address}: lost the connection, runs cancelled"):
+            specs = definition.specs()
+            runner._run_dask(client, specs, writer, summary, bar, tmp_path, False, threading.Event())
+        assert closes == "before the call" or writer.asked  # the thread was held between submit and wait
+    finally:
+        client.close()
+
+
 def test_a_killed_client_resumes_with_the_same_command(tmp_path, reference, processes):
     import psutil
 
@@ -407,6 +466,9 @@ class _ClusterWithAKiller:
 
     def nthreads(self):
         return {"tcp://127.0.0.1:1": 1}
+
+    def as_current(self):  # the loop waits on this client, not the process's default one
+        return contextlib.nullcontext()
 
 
 def run_spec_json(spec_json):

@@ -428,6 +428,12 @@ def _workers_ignore_ctrl_c() -> Iterator[None]:
         signal.signal(signal.SIGINT, previous)
 
 
+def _address(client: Any) -> str:
+    """The scheduler's address: a closed client has no scheduler object left, only its given address."""
+    scheduler = getattr(client, "scheduler", None)
+    return str(scheduler.address if scheduler is not None else getattr(client, "_start_arg", "unknown"))
+
+
 def _nthreads(client: Any) -> dict[str, int]:
     try:
         return dict(client.nthreads())
@@ -499,16 +505,26 @@ def _run_dask(
 ) -> None:
     from concurrent.futures import CancelledError
 
+    from distributed.client import ClosedClientError
     from distributed.comm import CommClosedError
+
+    def lost() -> SchedulerError:
+        return SchedulerError(
+            _address(client),
+            f"lost the connection, runs cancelled; the {writer.written + len(writer)} rows returned by "
+            "this call are stored: rerun the same command to resume",
+        )
 
     try:
         _collect(client, pending, writer, summary, bar, path, series, terminated, run_timeout)
-    except (CancelledError, CommClosedError):  # the scheduler, or the connection to it, is gone
-        raise SchedulerError(
-            str(client.scheduler.address),
-            f"lost the connection, runs cancelled; the {writer.written + len(writer)} rows returned by "
-            "this call are stored: rerun the same command to resume",
-        ) from None
+    except (CancelledError, CommClosedError, ClosedClientError):  # the scheduler, or the link to it, is gone
+        raise lost() from None
+    except Exception:
+        # the client gave up reconnecting and closed while this call was between two of its requests:
+        # whatever the next request raised, the cause is the lost scheduler
+        if client.status in ("closing", "closed"):
+            raise lost() from None
+        raise
 
 
 Task = tuple[ExperimentSpec, ...]  # the runs of one task: one, or several of one batch key
@@ -623,7 +639,11 @@ def _collect(
         due = writer.seconds_until_due()
         poll = clock.poll_s if due is None else min(max(due, 0.01), clock.poll_s)
         try:
-            finished, _ = wait([*in_flight, *stale], timeout=poll, return_when="FIRST_COMPLETED")
+            # this client, not the process's default one: once the client closes (the scheduler lost for
+            # longer than its reconnect timeout) there is no default client, and wait() would say only
+            # "No clients found"; on this client it raises the futures' cancellation
+            with client.as_current():
+                finished, _ = wait([*in_flight, *stale], timeout=poll, return_when="FIRST_COMPLETED")
         except TimeoutError:
             finished = set()
         for future in finished:
@@ -690,7 +710,7 @@ def _collect(
         elif clock.stalled_s() > run_timeout:  # no worker can take a run: the campaign cannot go on
             hung = ", ".join(sorted(clock.hung))
             raise SchedulerError(
-                str(client.scheduler.address),
+                _address(client),
                 f"every worker has a run past the {run_timeout:g} s run timeout ({hung}) and none returned "
                 f"for {clock.stalled_s():.0f} s; the {writer.written + len(writer)} rows returned by this "
                 "call are stored: rerun the same command when the workers work",

@@ -119,7 +119,7 @@ class CurrentPoints:
 
     def __call__(self, features: np.ndarray, depth: np.ndarray | None = None) -> np.ndarray:
         """P_C (n, 3) [m] at the measured features (m,), at the measured depths (n,) [m] if given."""
-        task, camera, n = self.task, self._camera, self._n
+        camera, n = self._camera, self._n
         if depth is not None:
             return points_at_depths(camera, features, depth)  # type: ignore[no-any-return]
         if self.pose_estimator is None:  # stereo: the points triangulated
@@ -127,8 +127,7 @@ class CurrentPoints:
             if bad >= 0:  # a disparity the triangulation rejects: the reference raises its error
                 triangulate_points(camera, features.reshape(n, 3), self._allow_behind)
             return P_C  # type: ignore[no-any-return]
-        T_O_C = self.pose_estimator(features)
-        Z = transform_points(inverse_pose(T_O_C), task.markers_O)[:, 2]  # [m]
+        Z = self.pose_estimator.marker_depths(features)  # [m], of the markers the estimator was given
         return np.column_stack((features.reshape(n, 2) * (Z / camera.focal_length)[:, None], Z))
 
 

@@ -87,6 +87,13 @@ def _solve_pnp(
     P_ref: np.ndarray, normalized: np.ndarray, method: str, flag: int, K: np.ndarray
 ) -> np.ndarray:
     """T_ref_C from contiguous points P_ref (n, 3) and normalized image points (n, 2): OpenCV's solvePnP."""
+    return _pose(*_solve_pnp_C(P_ref, normalized, method, flag, K))
+
+
+def _solve_pnp_C(
+    P_ref: np.ndarray, normalized: np.ndarray, method: str, flag: int, K: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(R_C_ref (3, 3), t_C (3,)): the points' frame in the camera's, as OpenCV's solvePnP gives it."""
     import cv2
 
     try:
@@ -96,10 +103,14 @@ def _solve_pnp(
     finite = math.isfinite(rvec.sum() + tvec.sum()) or (np.isfinite(rvec).all() and np.isfinite(tvec).all())
     if not ok or not finite:
         raise PoseEstimationError(method, f"OpenCV solvePnP ({method}) found no pose for {len(P_ref)} points")
-    R_C_ref = cv2.Rodrigues(rvec)[0]
+    return cv2.Rodrigues(rvec)[0], tvec.ravel()
+
+
+def _pose(R_C_ref: np.ndarray, t_C: np.ndarray) -> np.ndarray:
+    """T_ref_C = [R_C_ref^T, -R_C_ref^T t_C]: the camera's pose in the points' frame."""
     T = np.eye(4)
     T[:3, :3] = R_C_ref.T
-    T[:3, 3] = -R_C_ref.T @ tvec.ravel()
+    T[:3, 3] = -R_C_ref.T @ t_C
     return T
 
 
@@ -170,6 +181,7 @@ class CameraPoseEstimator:
             raise InvalidParameterError("camera", type(camera).__name__, "a StereoCamera or a PinholeCamera")
         self._n = n
         self._last: tuple[bytes, np.ndarray] | None = None  # features of the last call, its pose
+        self._last_pnp: tuple[bytes, tuple[np.ndarray, np.ndarray]] | None = None  # ... and its PnP
 
     def __call__(self, features: np.ndarray, depth: np.ndarray | None = None) -> np.ndarray:
         """T_ref_C (4, 4) from the camera's features (3n,) or (n, 3) stereo, (2n,) or (n, 2) monocular.
@@ -195,7 +207,44 @@ class CameraPoseEstimator:
             P_C = triangulate_points(self.camera, features.reshape(n, 3), self._allow_behind)
             T = kabsch_centred(P_C, self._centred, self._mean)
         else:
-            normalized = np.ascontiguousarray(features.reshape(n, 2) / self.camera.focal_length)
-            T = _solve_pnp(self._P, normalized, self._method, self._flag, _EYE3)
+            T = _pose(*self._pnp(features, key))
         self._last = (key, T.copy())
         return T
+
+    def marker_depths(self, features: np.ndarray) -> np.ndarray:
+        """Z_C (n,) [m]: each known point's depth in the pose a monocular camera's features give.
+
+        The third row of the points' pose in the camera, [R_C_ref | t_C] as OpenCV's ``solvePnP``
+        returns it: Z_i = r_3 . P_i + t_z, not through T_ref_C and its inverse (the same numbers to
+        rounding; the monocular laws' depths, :class:`~ibvs_youla.controllers.image_points.CurrentPoints`).
+        The PnP of these features is solved once for this and :meth:`__call__` (the hybrid law asks
+        both).
+
+        Raises:
+            InvalidParameterError: the camera is a StereoCamera (its depths are triangulated).
+            InvalidArrayError, PoseEstimationError: as :meth:`__call__`.
+        """
+        if not isinstance(self.camera, PinholeCamera):
+            raise InvalidParameterError(
+                "camera",
+                type(self.camera).__name__,
+                "a PinholeCamera (a stereo camera triangulates its depths)",
+            )
+        shape = getattr(features, "shape", None)
+        if shape not in self._shapes:
+            raise InvalidArrayError(
+                "features",
+                f"an array of shape {np.shape(features)}",
+                f"shape {self._shapes[0]} or {self._shapes[1]} for {self._n} points",
+            )
+        R_C_ref, t_C = self._pnp(features, features.tobytes())
+        return self._P @ R_C_ref[2] + t_C[2]  # type: ignore[no-any-return]
+
+    def _pnp(self, features: np.ndarray, key: bytes) -> tuple[np.ndarray, np.ndarray]:
+        """(R_C_ref, t_C) of OpenCV's PnP on the features, solved again only for other features."""
+        if self._last_pnp is not None and self._last_pnp[0] == key:
+            return self._last_pnp[1]
+        normalized = np.ascontiguousarray(features.reshape(self._n, 2) / self.camera.focal_length)
+        solution = _solve_pnp_C(self._P, normalized, self._method, self._flag, _EYE3)
+        self._last_pnp = (key, solution)
+        return solution

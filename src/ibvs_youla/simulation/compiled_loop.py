@@ -21,11 +21,11 @@ Beliefs (the controller's camera and markers) and calibration disturbances, whic
 not roles, are covered. The depths of L come from the depth sensor (``sensor="depth"``) or the
 stereo camera's triangulation, or are not needed (``ibvs-desired``); a monocular law at the current
 features without measured depths takes them from the controller's own pose estimate, as its update
-does: its ``CameraPoseEstimator`` (OpenCV's SQPnP) is called between two compiled calls, the sensor
-and the rest of the frame, and the believed markers' depths in that pose (:func:`estimated_depths`)
-are written into the frame. Per frame the free camera is one compiled call (two around the pose); a
-tick of the kinematic arm is Pinocchio's camera pose and J_C (the arm's kinematics) and one compiled
-call.
+does: its ``CameraPoseEstimator`` (OpenCV's PnP, SQPnP by default) is called between two compiled
+calls, the sensor and the rest of the frame, and the believed markers' depths in that pose
+(:func:`estimated_depths`, from the PnP's [R | t] directly) are written into the frame. Per frame
+the free camera is one compiled call (two around the pose); a tick of the kinematic arm is
+Pinocchio's camera pose and J_C (the arm's kinematics) and one compiled call.
 
 It gives the plug-in loop's result to rounding (``tests/test_compiled_frame_path.py``: 1e-12 on every
 method x plant x camera covered), with ``metadata["loop"] = "compiled"``, except where the depths come
@@ -53,7 +53,6 @@ from typing import Any
 
 import numpy as np
 
-from .._geometry import inverse_pose, transform_points
 from ..controllers.base import CommandType
 from ..controllers.ibvs import INTERACTIONS, PINV_THRESHOLD, AdaptiveGain, ClassicalIBVS
 from ..exceptions import InvalidDisparityError, PointBehindCameraError, PoseEstimationError
@@ -80,16 +79,15 @@ _FREE_SIGNALS = ("camera_twist", "ibvs_gain")
 _ARM_SIGNALS = ("q", "q_true", "dq", "camera_twist", "dq_ref", "ibvs_gain")
 
 
-def estimated_depths(estimator: Any, features: np.ndarray, markers_O: np.ndarray) -> np.ndarray:
+def estimated_depths(estimator: Any, features: np.ndarray) -> np.ndarray:
     """Z_C (n,) [m] of the believed markers in the pose the controller estimates from ``features``.
 
     The arithmetic of a monocular law's update at the current features
-    (:class:`~ibvs_youla.controllers.image_points.CurrentInteraction`): its ``CameraPoseEstimator``
-    (OpenCV's SQPnP), then the markers ``markers_O`` (n, 3) in that camera frame. Raises its
-    ``PoseEstimationError``.
+    (:class:`~ibvs_youla.controllers.image_points.CurrentPoints`): its ``CameraPoseEstimator``'s
+    :meth:`~ibvs_youla.estimation.monocular_pose.CameraPoseEstimator.marker_depths` (OpenCV's PnP,
+    the controller's markers in that camera frame). Raises its ``PoseEstimationError``.
     """
-    T_O_C = estimator(features.copy())
-    return transform_points(inverse_pose(T_O_C), markers_O)[:, 2]  # type: ignore[no-any-return]
+    return estimator.marker_depths(features.copy())  # type: ignore[no-any-return]
 
 
 class CompiledLoop:
@@ -125,7 +123,6 @@ class CompiledLoop:
         pose = isinstance(task.camera, PinholeCamera) and not sensor.measures_depth
         estimates = pose and controller.interaction != "desired"
         self.pose_estimator = controller.pose_estimator if estimates else None
-        self.believed_markers_O = np.asarray(task.markers_O, dtype=float)
         depth_from = DEPTH_MEASURED if sensor.measures_depth or pose else DEPTH_TRIANGULATED
         interaction = INTERACTIONS.index(controller.interaction)
         policy = chain[0].policy if chain else None
@@ -252,7 +249,7 @@ class CompiledLoop:
         """
         m, n = self.law.shape[0], self.markers_O.shape[0]
         try:
-            frame[m + n :] = estimated_depths(self.pose_estimator, frame[:m], self.believed_markers_O)
+            frame[m + n :] = estimated_depths(self.pose_estimator, frame[:m])
         except PoseEstimationError as err:
             return f"t = {t:.6g} s: {type(self.controller).__name__}'s estimate failed: {err}"
         return None

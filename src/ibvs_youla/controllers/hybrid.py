@@ -31,8 +31,10 @@ from typing import Any
 import numpy as np
 
 from .._validation import integer, non_negative, one_of
+from ..estimation.monocular_pose import PNP_METHODS
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
 from .ibvs import ClassicalIBVS
+from .image_points import pnp_spec
 from .pbvs import PBVS
 
 __all__ = ["MODES", "REGISTRATIONS", "HybridSwitched"]
@@ -49,31 +51,44 @@ class HybridSwitched(Controller):
             function may never exceed where it started).
         start_mode: ``"ibvs"`` (default) or ``"pbvs"``.
         min_dwell: Frames a mode is kept after a switch (default 5, >= 1).
+        pnp: The PnP method of the monocular pose, one of
+            :data:`~ibvs_youla.estimation.monocular_pose.PNP_METHODS` (default ``"sqpnp"``), for
+            both laws: they share one estimator (one pose per frame). Stereo: only the default.
 
     Raises:
-        InvalidParameterError: a bad gain, margin, mode or dwell; at reset, what either law
-            rejects (a camera of another kind, too few markers).
+        InvalidParameterError: a bad gain, margin, mode, dwell or ``pnp``; at reset, what either
+            law rejects (a camera of another kind, too few markers, ``pnp`` other than ``"sqpnp"``
+            with a stereo camera, ``"ippe"`` with markers that are not coplanar).
     """
 
     command_type = CommandType.CAMERA_TWIST
     name = "hybrid"
 
-    def __init__(self, gain: float = 0.5, margin: float = 0.0, start_mode: str = "ibvs", min_dwell: int = 5):
-        self._ibvs = ClassicalIBVS("current", gain)
-        self._pbvs = PBVS(gain)
+    def __init__(
+        self,
+        gain: float = 0.5,
+        margin: float = 0.0,
+        start_mode: str = "ibvs",
+        min_dwell: int = 5,
+        pnp: str = "sqpnp",
+    ) -> None:
+        self.pnp = one_of(pnp, "pnp", PNP_METHODS)
+        self._ibvs = ClassicalIBVS("current", gain, self.pnp)
+        self._pbvs = PBVS(gain, self.pnp)
         self.gain = self._pbvs.gain
         self.margin = non_negative(margin, "margin")
         self.start_mode = one_of(start_mode, "start_mode", MODES)
         self.min_dwell = integer(min_dwell, "min_dwell", low=1, unit="[frames]")
 
     def spec(self) -> dict[str, Any]:
-        """Gain, margin, start mode and dwell."""
+        """Gain, margin, start mode, dwell, and the PnP method when it is not the default."""
         return {
             **super().spec(),
             "gain": self.gain,
             "margin": self.margin,
             "start_mode": self.start_mode,
             "min_dwell": self.min_dwell,
+            **pnp_spec(self.pnp),
         }
 
     def reset(self, task: ServoTask) -> None:
@@ -81,7 +96,8 @@ class HybridSwitched(Controller):
         self._ibvs.reset(task)
         self._pbvs.reset(task)
         if self._ibvs.pose_estimator is not None:  # monocular: both laws from one pose per frame
-            self._pbvs.pose_estimator = self._ibvs.pose_estimator  # the same camera, markers and PnP
+            self._pbvs.pose_estimator = self._ibvs.pose_estimator  # the same camera, markers and PnP method
+        self.pose_estimator = self._pbvs.pose_estimator  # the pose of each frame (both laws' if monocular)
         super().reset(task)
         self._mode = MODES.index(self.start_mode)
         self._bounds: tuple[float, float] | None = None

@@ -37,10 +37,11 @@ import numpy as np
 from .._geometry import inverse_pose, transform_points
 from .._validation import non_negative, one_of, positive
 from ..control.singular_values import SingularValuePolicy
+from ..estimation.monocular_pose import PNP_METHODS
 from ..exceptions import InvalidParameterError
 from ..model.camera import points_interaction_matrix
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
-from .image_points import CurrentInteraction, feature_rows
+from .image_points import CurrentInteraction, feature_rows, pnp_spec
 
 __all__ = ["INTERACTIONS", "PINV_THRESHOLD", "REGISTRATIONS", "AdaptiveGain", "ClassicalIBVS"]
 
@@ -109,8 +110,8 @@ class ClassicalIBVS(Controller):
 
     * current, monocular (>= 4 points): the controller's own model, not the truth: the
       camera pose estimated from the image, ``estimate_camera_pose(task.camera, features,
-      task.markers_O)`` (SQPnP), and the believed markers give Z_i; L is evaluated at the
-      measured features with those depths (the points back-projected, X = u Z / F);
+      task.markers_O)`` (SQPnP, or the ``pnp`` method), and the believed markers give Z_i; L
+      is evaluated at the measured features with those depths (the points back-projected, X = u Z / F);
     * current, stereo (>= 3 points): the points triangulated from the features (Eq. (C6)-(C8)
       of the paper, :func:`~ibvs_youla.model.camera.triangulate_points`), 3 rows per point;
     * desired: the believed markers in the believed target pose ``task.T_O_C_target``,
@@ -129,17 +130,30 @@ class ClassicalIBVS(Controller):
         interaction: ``"current"``, ``"desired"`` or ``"mean"`` (module docstring).
         gain: lambda [1/s] (default 0.5, ViSP's tutorial value), or an :class:`AdaptiveGain`
             (or a mapping of its three fields), evaluated at ||e||_inf at each frame.
+        pnp: The PnP method of the monocular pose that gives L its depths (``"current"`` and
+            ``"mean"``), one of :data:`~ibvs_youla.estimation.monocular_pose.PNP_METHODS`
+            (default ``"sqpnp"``; ``"ippe"`` for coplanar markers). ``"desired"`` estimates no
+            pose and takes only the default; so does a stereo camera (triangulated depths).
 
     Raises:
-        InvalidParameterError: an unknown ``interaction`` or a bad gain; at reset, a
-            monocular camera with fewer than 4 points, a stereo one with fewer than 3, or
-            another camera.
+        InvalidParameterError: an unknown ``interaction``, a bad gain, an unknown ``pnp`` or one
+            other than ``"sqpnp"`` with ``"desired"``; at reset, a monocular camera with fewer
+            than 4 points, a stereo one with fewer than 3, or another camera, ``pnp`` other than
+            ``"sqpnp"`` with a stereo camera, or ``"ippe"`` with markers that are not coplanar.
     """
 
     command_type = CommandType.CAMERA_TWIST
 
-    def __init__(self, interaction: str = "current", gain: Any = 0.5) -> None:
+    def __init__(self, interaction: str = "current", gain: Any = 0.5, pnp: str = "sqpnp") -> None:
         self.interaction = one_of(interaction, "interaction", INTERACTIONS)
+        self.pnp = one_of(pnp, "pnp", PNP_METHODS)
+        if self.interaction == "desired" and self.pnp != "sqpnp":
+            raise InvalidParameterError(
+                "pnp",
+                self.pnp,
+                "'sqpnp' (the default) with interaction='desired', which estimates no pose (L* from the "
+                "believed target pose); the PnP method acts with 'current' and 'mean'",
+            )
         self.gain = _gain(gain)
         self._policy = SingularValuePolicy("truncate", PINV_THRESHOLD)
         self._twist = np.zeros(6)
@@ -153,13 +167,14 @@ class ClassicalIBVS(Controller):
         return f"ibvs-{self.interaction}"
 
     def spec(self) -> dict[str, Any]:
-        """Interaction matrix, gain (a number or the adaptive gain's fields) and cut-off."""
+        """Interaction matrix, gain (a number or an adaptive gain's fields), cut-off; PnP unless default."""
         gain = asdict(self.gain) if isinstance(self.gain, AdaptiveGain) else self.gain
         return {
             **super().spec(),
             "interaction": self.interaction,
             "gain": gain,
             "pinv_threshold": PINV_THRESHOLD,
+            **pnp_spec(self.pnp),
         }
 
     # ------------------------------------------------------------------ run
@@ -170,7 +185,9 @@ class ClassicalIBVS(Controller):
         super().reset(task)
         self._feature_target = target
         self._rows = rows
-        self._interaction = CurrentInteraction(task, rows)  # L(s, Z), what does not change made once
+        self._interaction = CurrentInteraction(
+            task, rows, self.pnp
+        )  # L(s, Z), what does not change made once
         # monocular: the pose that gives L its depths (CameraPoseEstimator; None for stereo)
         self.pose_estimator = self._interaction.pose_estimator
         self._L_desired = self._L_desired_pinv = None
@@ -225,8 +242,15 @@ class ClassicalIBVS(Controller):
 
 
 def _factory(interaction: str) -> Any:
-    def factory(gain: Any = 0.5) -> ClassicalIBVS:
-        return ClassicalIBVS(interaction, gain)
+    if interaction == "desired":  # estimates no pose: no ``pnp`` to offer
+
+        def factory(gain: Any = 0.5) -> ClassicalIBVS:
+            return ClassicalIBVS(interaction, gain)
+
+    else:
+
+        def factory(gain: Any = 0.5, pnp: str = "sqpnp") -> ClassicalIBVS:  # type: ignore[misc]
+            return ClassicalIBVS(interaction, gain, pnp)
 
     factory.__name__ = f"ibvs_{interaction}"
     return factory

@@ -6,7 +6,8 @@ L(s, Z) at the measured features with depths from the controller's own model:
 * stereo (a ``StereoCamera``, >= 3 points, 3 rows per point): the points triangulated from the
   features (Eq. (C6)-(C8) of the paper, :func:`~ibvs_youla.model.camera.triangulate_points`);
 * monocular (a ``PinholeCamera``, >= 4 points, 2 rows per point): the camera pose estimated
-  from the image, ``estimate_camera_pose(task.camera, features, task.markers_O)`` (SQPnP), and
+  from the image, ``estimate_camera_pose(task.camera, features, task.markers_O)`` (SQPnP, or the
+  controller's ``pnp`` method: :func:`~ibvs_youla.estimation.monocular_pose.pnp_options`), and
   the believed markers give the depths Z_i; the points are back-projected, X = u Z / F.
 
 A frame that carries measured depths (a depth sensor, :attr:`~.base.CameraFrame.depth`) gives
@@ -26,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._geometry import inverse_pose, transform_points
-from ..estimation.monocular_pose import CameraPoseEstimator, estimate_camera_pose
+from ..estimation.monocular_pose import CameraPoseEstimator, estimate_camera_pose, pnp_options
 from ..exceptions import InvalidParameterError
 from ..model.camera import (
     PinholeCamera,
@@ -45,6 +46,7 @@ __all__ = [
     "feature_rows",
     "normalized_point_rows",
     "normalized_points",
+    "pnp_spec",
 ]
 
 
@@ -78,6 +80,15 @@ def feature_rows(task: ServoTask, controller: str) -> int:
     return rows
 
 
+def pnp_spec(pnp: str) -> dict[str, str]:
+    """The ``pnp`` entry of a controller's :meth:`~.base.Controller.spec`: none for the default ``"sqpnp"``.
+
+    A run's metadata holds its controller's spec; with the default left out, the metadata of runs
+    made before the option existed, and of runs that do not choose it, stay as they were.
+    """
+    return {} if pnp == "sqpnp" else {"pnp": pnp}
+
+
 def current_interaction_matrix(
     task: ServoTask, features: np.ndarray, rows: int, depth: np.ndarray | None = None
 ) -> np.ndarray:
@@ -109,13 +120,22 @@ class CurrentPoints:
     Args:
         task: The controller's task.
         rows: Rows per point, from :func:`feature_rows`.
+        pnp: The monocular pose's PnP method, one of
+            :data:`~ibvs_youla.estimation.monocular_pose.PNP_METHODS` (default ``"sqpnp"``).
+
+    Raises:
+        InvalidParameterError: ``pnp`` other than ``"sqpnp"`` with a stereo camera, or ``"ippe"``
+            with markers that are not coplanar.
     """
 
-    def __init__(self, task: ServoTask, rows: int) -> None:
+    def __init__(self, task: ServoTask, rows: int, pnp: str = "sqpnp") -> None:
         self.task, self._rows, self._n = task, rows, task.n_points
         self._camera, self._allow_behind = task.camera, bool(task.virtual_points)
         self._params, self._lens_x = camera_parameters(task.camera)
-        self.pose_estimator = CameraPoseEstimator(task.camera, task.markers_O) if rows == 2 else None
+        options = pnp_options(task.camera, pnp)  # stereo: {} for the default, else refused
+        self.pose_estimator = (
+            CameraPoseEstimator(task.camera, task.markers_O, **options) if rows == 2 else None
+        )
 
     def __call__(self, features: np.ndarray, depth: np.ndarray | None = None) -> np.ndarray:
         """P_C (n, 3) [m] at the measured features (m,), at the measured depths (n,) [m] if given."""
@@ -144,10 +164,11 @@ class CurrentInteraction:
     Args:
         task: The controller's task.
         rows: Rows per point, from :func:`feature_rows`.
+        pnp: The monocular pose's PnP method, as :class:`CurrentPoints`.
     """
 
-    def __init__(self, task: ServoTask, rows: int) -> None:
-        self.points = CurrentPoints(task, rows)
+    def __init__(self, task: ServoTask, rows: int, pnp: str = "sqpnp") -> None:
+        self.points = CurrentPoints(task, rows, pnp)
         self._camera, self._allow_behind = task.camera, bool(task.virtual_points)
         self._params, self._lens_x = camera_parameters(task.camera)
         self.pose_estimator = self.points.pose_estimator

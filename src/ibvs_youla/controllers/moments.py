@@ -16,7 +16,7 @@ pseudo-inverse truncated at 1e-6 sigma_max as :class:`~.ibvs.ClassicalIBVS`, wit
   target plane (A*, B*, C*) of the controller's believed target pose, computed once;
 * ``"current"``: L_s at the current features and the plane through the points of the
   controller's model at the frame (:class:`~.image_points.CurrentPoints`: the monocular pose by
-  SQPnP, or the stereo triangulation; :func:`~.image_moments.plane_of_points`).
+  SQPnP or the ``pnp`` method, or the stereo triangulation; :func:`~.image_moments.plane_of_points`).
 
 The paper's features are for a planar object: markers that are not coplanar, and a target image
 whose orientation has no value (isotropic second-order moments, e.g. a square seen face-on) or
@@ -35,11 +35,12 @@ import numpy as np
 from .._geometry import inverse_pose, transform_points
 from .._validation import one_of, positive
 from ..control.singular_values import SingularValuePolicy
+from ..estimation.monocular_pose import PNP_METHODS
 from ..exceptions import FeatureSingularityError, InvalidParameterError
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
 from .ibvs import PINV_THRESHOLD
 from .image_moments import MomentFeatures, plane_of_points
-from .image_points import CurrentPoints, feature_rows, normalized_points
+from .image_points import CurrentPoints, feature_rows, normalized_points, pnp_spec
 
 __all__ = ["INTERACTIONS", "MIN_TARGET_CONDITION", "REGISTRATIONS", "MomentIBVS"]
 
@@ -54,9 +55,16 @@ class MomentIBVS(Controller):
     Args:
         interaction: ``"desired"`` (L_s* once) or ``"current"`` (L_s at every frame).
         gain: lambda [1/s], a number > 0 (default 0.5, as the other twist laws).
+        pnp: The PnP method of the monocular pose that gives the plane of the points with
+            ``interaction="current"``, one of
+            :data:`~ibvs_youla.estimation.monocular_pose.PNP_METHODS` (default ``"sqpnp"``; the
+            markers are coplanar, so ``"ippe"`` always applies). ``"desired"`` estimates no pose
+            and a stereo camera triangulates: both take only the default.
 
     Raises:
-        InvalidParameterError: an unknown ``interaction``, a bad gain; at reset, a camera other
+        InvalidParameterError: an unknown ``interaction``, a bad gain, an unknown ``pnp`` or one
+            other than ``"sqpnp"`` with ``"desired"``; at reset, ``pnp`` other than ``"sqpnp"``
+            with a stereo camera, a camera other
             than a ``PinholeCamera`` (>= 4 points) or a ``StereoCamera`` (>= 3 points), markers
             that are not coplanar, a target image whose alpha has no value or whose L_s* is
             singular (sigma_min / sigma_max < 1e-6).
@@ -66,19 +74,28 @@ class MomentIBVS(Controller):
     command_type = CommandType.CAMERA_TWIST
     name = "ibvs-moments"
 
-    def __init__(self, interaction: str = "desired", gain: Any = 0.5) -> None:
+    def __init__(self, interaction: str = "desired", gain: Any = 0.5, pnp: str = "sqpnp") -> None:
         self.interaction = one_of(interaction, "interaction", INTERACTIONS)
+        self.pnp = one_of(pnp, "pnp", PNP_METHODS)
+        if self.interaction == "desired" and self.pnp != "sqpnp":
+            raise InvalidParameterError(
+                "pnp",
+                self.pnp,
+                "'sqpnp' (the default) with interaction='desired', which estimates no pose (L_s* from the "
+                "believed target pose); the PnP method acts with interaction='current'",
+            )
         self.gain = positive(gain, "gain", unit="1/s")
         self._policy = SingularValuePolicy("truncate", PINV_THRESHOLD)
         self._twist = np.zeros(6)
 
     def spec(self) -> dict[str, Any]:
-        """Interaction matrix, gain and the pseudo-inverse's cut-off."""
+        """Interaction matrix, gain, the pseudo-inverse's cut-off, and the PnP method unless the default."""
         return {
             **super().spec(),
             "interaction": self.interaction,
             "gain": self.gain,
             "pinv_threshold": PINV_THRESHOLD,
+            **pnp_spec(self.pnp),
         }
 
     def reset(self, task: ServoTask) -> None:
@@ -117,7 +134,9 @@ class MomentIBVS(Controller):
         self.feature_target = features.features(p_target)
         self.L_target = L_target
         self._L_target_pinv = self._policy.decompose(L_target).pinv
-        self._points = CurrentPoints(task, rows) if self.interaction == "current" else None
+        self._points = CurrentPoints(task, rows, self.pnp) if self.interaction == "current" else None
+        # monocular "current": the pose giving the plane of the points (None for "desired" and stereo)
+        self.pose_estimator = None if self._points is None else self._points.pose_estimator
         self._twist = np.zeros(6)
 
     def update(self, frame: CameraFrame, reading: JointReading | None) -> None:
@@ -137,8 +156,8 @@ class MomentIBVS(Controller):
         return self._twist
 
 
-def _moments(interaction: str = "desired", gain: Any = 0.5) -> MomentIBVS:
-    return MomentIBVS(interaction, gain)
+def _moments(interaction: str = "desired", gain: Any = 0.5, pnp: str = "sqpnp") -> MomentIBVS:
+    return MomentIBVS(interaction, gain, pnp)
 
 
 REGISTRATIONS = (

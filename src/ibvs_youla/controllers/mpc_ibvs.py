@@ -17,7 +17,7 @@ of either paper are not cited: their text is not in this repository to check the
 with L = L(s_0, Z) the interaction matrix at the *current* features and depths, held fixed over
 the horizon (no re-linearization along the prediction; a later option may re-linearize). Depths
 come from the controller's own model, as in classical IBVS: a monocular camera's pose estimated
-from the image, ``estimate_camera_pose(task.camera, features, task.markers_O)`` (SQPnP), gives
+from the image, ``estimate_camera_pose(task.camera, features, task.markers_O)`` (SQPnP, or ``pnp``), gives
 Z_i and L is evaluated at the measured features (points back-projected, X = u Z / F); a stereo
 camera triangulates its points (``triangulate_points``, Eq. (C6)-(C8) of the project's paper);
 a frame with measured depths (``sensor="depth"``) gives them instead (:mod:`.image_points`).
@@ -80,10 +80,11 @@ import qpsolvers
 
 from .._memory import fits_in_memory
 from .._validation import integer, non_negative, one_of, positive
+from ..estimation.monocular_pose import PNP_METHODS
 from ..exceptions import InvalidParameterError
 from ..model.camera import StereoCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
-from .image_points import CurrentInteraction, feature_rows
+from .image_points import CurrentInteraction, feature_rows, pnp_spec
 from .mpc_kernels import qp_blocks
 
 __all__ = ["FALLBACKS", "REGISTRATIONS", "MpcIBVS"]
@@ -144,12 +145,17 @@ class MpcIBVS(Controller):
             limit, in feature units (default 0.5); unused for a finite sensor.
         solver: A solver of ``qpsolvers.available_solvers`` (default ``"daqp"``).
         fallback: ``"relax"`` or ``"stop"``, for a frame whose QP is infeasible.
+        pnp: The PnP method of the monocular pose that gives the depths, one of
+            :data:`~ibvs_youla.estimation.monocular_pose.PNP_METHODS` (default ``"sqpnp"``;
+            ``"ippe"`` for coplanar markers). A stereo camera takes only the default
+            (triangulated depths).
 
     Raises:
         InvalidParameterError: a bad value or a solver that is not installed (the message lists
             those that are); at reset, a camera that is neither stereo nor pinhole, too few
             points (stereo >= 3, monocular >= 4), lambda T > 1, a margin that leaves no image,
-            or target features outside the constrained image.
+            or target features outside the constrained image; ``pnp`` other than ``"sqpnp"`` with a
+            stereo camera, or ``"ippe"`` with markers that are not coplanar.
     """
 
     command_type = CommandType.CAMERA_TWIST
@@ -167,6 +173,7 @@ class MpcIBVS(Controller):
         image_half_extent: float = 0.5,
         solver: str = "daqp",
         fallback: str = "relax",
+        pnp: str = "sqpnp",
     ) -> None:
         self.horizon = _horizon(horizon)
         self.q_weight = positive(q_weight, "q_weight")
@@ -184,6 +191,7 @@ class MpcIBVS(Controller):
             )
         self.solver = solver
         self.fallback = one_of(fallback, "fallback", FALLBACKS)
+        self.pnp = one_of(pnp, "pnp", PNP_METHODS)
         self._init_signals()
 
     def _init_signals(self) -> None:
@@ -194,7 +202,7 @@ class MpcIBVS(Controller):
         self._infeasible = np.zeros(1)
 
     def spec(self) -> dict[str, Any]:
-        """Every parameter, and the fixed choices (local model, reference, bounds' kind)."""
+        """Every parameter (``pnp`` if not the default), and the fixed choices (model, reference, bounds)."""
         return {
             **super().spec(),
             "horizon": self.horizon,
@@ -210,6 +218,7 @@ class MpcIBVS(Controller):
             "model": "local: L at the current features and depths, held over the horizon",
             "reference": "s* + (1 - gain T)^j e_0",
             "speed_bounds": "component-wise (ViSP's saturateVelocities)",
+            **pnp_spec(self.pnp),
         }
 
     # ------------------------------------------------------------------ run
@@ -244,7 +253,10 @@ class MpcIBVS(Controller):
         super().reset(task)
         lower = np.tril(np.ones((N, N)))  # row j-1: V_j = sum_{i<j} v_i
         self._rows, self._target, self._F, self._T = rows, target, F, T
-        self._interaction = CurrentInteraction(task, rows)  # L(s, Z), what does not change made once
+        self._interaction = CurrentInteraction(
+            task, rows, self.pnp
+        )  # L(s, Z), what does not change made once
+        self.pose_estimator = self._interaction.pose_estimator  # monocular: the pose giving L its depths
         self._A_img, self._b_img = A_img, b_img / F  # A_img (s / F) <= b_img / F, on normalized features
         self._lower = lower
         self._W = lower.T.dot(lower)  # W[i, k] = N - max(i, k)

@@ -48,12 +48,13 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import positive
+from .._validation import one_of, positive
 from ..control.singular_values import SingularValuePolicy
+from ..estimation.monocular_pose import PNP_METHODS
 from ..exceptions import FeatureSingularityError
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
 from .ibvs import PINV_THRESHOLD
-from .image_points import CurrentInteraction, feature_rows, normalized_point_rows, normalized_points
+from .image_points import CurrentInteraction, feature_rows, normalized_point_rows, normalized_points, pnp_spec
 
 __all__ = [
     "REGISTRATIONS",
@@ -115,24 +116,31 @@ class PartitionedIBVS(Controller):
     Args:
         gain: lambda [1/s] of the point features, the depth and the roll, a number > 0 (default
             0.5, as the other twist laws).
+        pnp: The PnP method of the monocular pose that gives the depths, one of
+            :data:`~ibvs_youla.estimation.monocular_pose.PNP_METHODS` (default ``"sqpnp"``;
+            ``"ippe"`` for coplanar markers). A stereo camera takes only the default
+            (triangulated depths).
 
     Raises:
-        InvalidParameterError: a bad gain; at reset, a camera other than a ``PinholeCamera``
-            (>= 4 points: the pose by PnP) or a ``StereoCamera`` (>= 3 points).
+        InvalidParameterError: a bad gain or ``pnp``; at reset, a camera other than a
+            ``PinholeCamera`` (>= 4 points: the pose by PnP) or a ``StereoCamera`` (>= 3 points),
+            ``pnp`` other than ``"sqpnp"`` with a stereo camera, or ``"ippe"`` with markers that
+            are not coplanar.
         FeatureSingularityError: at reset or at a frame, points whose polygon has no area.
     """
 
     command_type = CommandType.CAMERA_TWIST
     name = "ibvs-partitioned"
 
-    def __init__(self, gain: Any = 0.5) -> None:
+    def __init__(self, gain: Any = 0.5, pnp: str = "sqpnp") -> None:
         self.gain = positive(gain, "gain", unit="1/s")
+        self.pnp = one_of(pnp, "pnp", PNP_METHODS)
         self._policy = SingularValuePolicy("truncate", PINV_THRESHOLD)
         self._twist = np.zeros(6)
 
     def spec(self) -> dict[str, Any]:
-        """Gain and the pseudo-inverse's cut-off."""
-        return {**super().spec(), "gain": self.gain, "pinv_threshold": PINV_THRESHOLD}
+        """Gain, the pseudo-inverse's cut-off, and the PnP method unless the default."""
+        return {**super().spec(), "gain": self.gain, "pinv_threshold": PINV_THRESHOLD, **pnp_spec(self.pnp)}
 
     def reset(self, task: ServoTask) -> None:
         """Check the camera, the point count and the target polygon's area."""
@@ -144,7 +152,7 @@ class PartitionedIBVS(Controller):
         self.p_target = p_target
         self._focal_length = task.camera.focal_length
         self._feature_target = target / self._focal_length
-        self._interaction = CurrentInteraction(task, rows)
+        self._interaction = CurrentInteraction(task, rows, self.pnp)
         self.pose_estimator = self._interaction.pose_estimator
         self._twist = np.zeros(6)
 
@@ -170,8 +178,8 @@ class PartitionedIBVS(Controller):
         return self._twist
 
 
-def _partitioned(gain: Any = 0.5) -> PartitionedIBVS:
-    return PartitionedIBVS(gain)
+def _partitioned(gain: Any = 0.5, pnp: str = "sqpnp") -> PartitionedIBVS:
+    return PartitionedIBVS(gain, pnp)
 
 
 REGISTRATIONS = (

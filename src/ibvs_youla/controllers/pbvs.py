@@ -51,12 +51,13 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .._geometry import inverse_pose
-from .._validation import positive
-from ..estimation.monocular_pose import CameraPoseEstimator
+from .._validation import one_of, positive
+from ..estimation.monocular_pose import PNP_METHODS, CameraPoseEstimator, pnp_options
 from ..exceptions import InvalidParameterError
 from ..model.camera import PinholeCamera, StereoCamera
 from ..model.rotation_kernels import theta_u_compiled
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
+from .image_points import pnp_spec
 
 __all__ = ["PBVS", "REGISTRATIONS", "check_pose_task", "check_sampled_gain", "pose_options", "theta_u"]
 
@@ -120,9 +121,15 @@ def check_pose_task(task: ServoTask, controller: str) -> None:
         )
 
 
-def pose_options(task: ServoTask) -> dict[str, Any]:
-    """Options of :func:`estimate_camera_pose` for the task's camera (virtual points for stereo only)."""
-    return {"allow_behind": task.virtual_points} if isinstance(task.camera, StereoCamera) else {}
+def pose_options(task: ServoTask, pnp: str = "sqpnp") -> dict[str, Any]:
+    """Options of :func:`estimate_camera_pose` for the task's camera: virtual points (stereo), or PnP method.
+
+    Raises:
+        InvalidParameterError: ``pnp`` other than ``"sqpnp"`` with a ``StereoCamera`` (stereo P3P,
+            no PnP: :func:`~ibvs_youla.estimation.monocular_pose.pnp_options`).
+    """
+    options = pnp_options(task.camera, pnp)
+    return {"allow_behind": task.virtual_points} if isinstance(task.camera, StereoCamera) else options
 
 
 class PBVS(Controller):
@@ -131,21 +138,28 @@ class PBVS(Controller):
     Args:
         gain: lambda [1/s], > 0 (default 0.5, ViSP's tutorial value); at reset, lambda T < 2 for the
             frame period T.
+        pnp: The monocular pose's PnP method, one of
+            :data:`~ibvs_youla.estimation.monocular_pose.PNP_METHODS` (default ``"sqpnp"``; ``"ippe"``
+            for coplanar markers). A stereo camera takes only the default (its pose is stereo P3P),
+            and a frame with measured depths is fitted by Kabsch, no PnP.
 
     Raises:
-        InvalidParameterError: a gain that is not a finite number > 0; at reset, lambda T >= 2, a
-            camera of another kind, or too few markers (:func:`check_pose_task`).
+        InvalidParameterError: a gain that is not a finite number > 0, an unknown ``pnp``; at reset,
+            lambda T >= 2, a camera of another kind, too few markers (:func:`check_pose_task`),
+            ``pnp`` other than ``"sqpnp"`` with a stereo camera, or ``"ippe"`` with markers that
+            are not coplanar.
     """
 
     command_type = CommandType.CAMERA_TWIST
     name = "pbvs"
 
-    def __init__(self, gain: float = 0.5) -> None:
+    def __init__(self, gain: float = 0.5, pnp: str = "sqpnp") -> None:
         self.gain = positive(gain, "gain", unit="1/s")
+        self.pnp = one_of(pnp, "pnp", PNP_METHODS)
 
     def spec(self) -> dict[str, Any]:
-        """Name, class and gain [1/s]."""
-        return {**super().spec(), "gain": self.gain}
+        """Name, class, gain [1/s], and the PnP method when it is not the default."""
+        return {**super().spec(), "gain": self.gain, **pnp_spec(self.pnp)}
 
     def reset(self, task: ServoTask) -> None:
         """Check the task; keep the inverse of the desired pose T_c*_O."""
@@ -153,7 +167,7 @@ class PBVS(Controller):
         check_sampled_gain(self.gain, task.frame_period, self.name)
         super().reset(task)
         self._T_target_O = inverse_pose(np.asarray(task.T_O_C_target, dtype=float))  # T_c*_O
-        self._options = pose_options(task)
+        self._options = pose_options(task, self.pnp)
         # the camera pose of each frame (estimate_camera_pose, its arguments checked once)
         self.pose_estimator = CameraPoseEstimator(task.camera, task.markers_O, **self._options)
         self._error = np.zeros(6)

@@ -63,10 +63,11 @@ import numpy as np
 
 from .._validation import one_of, positive
 from ..control.singular_values import SingularValuePolicy
+from ..estimation.monocular_pose import PNP_METHODS
 from ..exceptions import FeatureSingularityError
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
 from .ibvs import PINV_THRESHOLD
-from .image_points import CurrentInteraction, feature_rows
+from .image_points import CurrentInteraction, feature_rows, pnp_spec
 
 __all__ = [
     "REGISTRATIONS",
@@ -157,25 +158,38 @@ class PolarIBVS(Controller):
         gain: lambda [1/s], a number > 0 (default 0.5, as the other twist laws).
         wrap: ``"joint"`` (default) or ``"per-point"``: how the phi errors are wrapped (module
             docstring).
+        pnp: The PnP method of the monocular pose that gives the depths, one of
+            :data:`~ibvs_youla.estimation.monocular_pose.PNP_METHODS` (default ``"sqpnp"``;
+            ``"ippe"`` for coplanar markers). A stereo camera takes only the default
+            (triangulated depths).
 
     Raises:
-        InvalidParameterError: a bad gain or ``wrap``; at reset, a camera other than a ``PinholeCamera``
-            (>= 4 points: the pose by PnP) or a ``StereoCamera`` (>= 3 points).
+        InvalidParameterError: a bad gain, ``wrap`` or ``pnp``; at reset, a camera other than a
+            ``PinholeCamera`` (>= 4 points: the pose by PnP) or a ``StereoCamera`` (>= 3 points),
+            ``pnp`` other than ``"sqpnp"`` with a stereo camera, or ``"ippe"`` with markers that
+            are not coplanar.
         FeatureSingularityError: at reset or at a frame, a point at the principal point.
     """
 
     command_type = CommandType.CAMERA_TWIST
     name = "ibvs-polar"
 
-    def __init__(self, gain: Any = 0.5, wrap: str = "joint") -> None:
+    def __init__(self, gain: Any = 0.5, wrap: str = "joint", pnp: str = "sqpnp") -> None:
         self.gain = positive(gain, "gain", unit="1/s")
         self.wrap = one_of(wrap, "wrap", WRAPS)
+        self.pnp = one_of(pnp, "pnp", PNP_METHODS)
         self._policy = SingularValuePolicy("truncate", PINV_THRESHOLD)
         self._twist = np.zeros(6)
 
     def spec(self) -> dict[str, Any]:
-        """Gain, angle wrapping and the pseudo-inverse's cut-off."""
-        return {**super().spec(), "gain": self.gain, "wrap": self.wrap, "pinv_threshold": PINV_THRESHOLD}
+        """Gain, angle wrapping, the pseudo-inverse's cut-off, and the PnP method unless the default."""
+        return {
+            **super().spec(),
+            "gain": self.gain,
+            "wrap": self.wrap,
+            "pinv_threshold": PINV_THRESHOLD,
+            **pnp_spec(self.pnp),
+        }
 
     def reset(self, task: ServoTask) -> None:
         """Check the camera and point count; the target's polar features."""
@@ -189,7 +203,7 @@ class PolarIBVS(Controller):
         super().reset(task)
         self.feature_target = s_target
         self._rows, self._focal_length = rows, F
-        self._interaction = CurrentInteraction(task, rows)
+        self._interaction = CurrentInteraction(task, rows, self.pnp)
         self.pose_estimator = self._interaction.pose_estimator
         self._twist = np.zeros(6)
 
@@ -212,8 +226,8 @@ class PolarIBVS(Controller):
         return self._twist
 
 
-def _polar(gain: Any = 0.5, wrap: str = "joint") -> PolarIBVS:
-    return PolarIBVS(gain, wrap)
+def _polar(gain: Any = 0.5, wrap: str = "joint", pnp: str = "sqpnp") -> PolarIBVS:
+    return PolarIBVS(gain, wrap, pnp)
 
 
 REGISTRATIONS = (

@@ -42,9 +42,9 @@ Rotation and depth ratio (``rotation_from``):
 
 * ``"pose"`` (any camera): the current pose from the image by
   :func:`~ibvs_youla.estimation.monocular_pose.estimate_camera_pose` (stereo P3P, or OpenCV SQPnP
-  for a monocular camera; from the measured depths by Kabsch when the frame carries them, as
-  PBVS), the desired one from the task: c*T_c gives theta u, and the reference point's depth in
-  {c} gives rho.
+  or the ``pnp`` method for a monocular camera; from the measured depths by Kabsch when the frame
+  carries them, as PBVS), the desired one from the task: c*T_c gives theta u, and the reference
+  point's depth in {c} gives rho.
 * ``"homography"`` (monocular camera, four or more coplanar markers): Malis et al.'s route, no
   current pose; of the 3-D model it uses the plane's normal n* and the depth Z* at the target (the
   scale of L_v, which Malis et al. estimate), both from the task. The homography H with m ~ H m*
@@ -72,10 +72,11 @@ import numpy as np
 from .._geometry import inverse_pose, transform_points
 from .._linalg import svd
 from .._validation import integer, one_of, positive
-from ..estimation.monocular_pose import CameraPoseEstimator
+from ..estimation.monocular_pose import PNP_METHODS, CameraPoseEstimator
 from ..exceptions import InvalidParameterError, PointBehindCameraError, PoseEstimationError
 from ..model.camera import PinholeCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
+from .image_points import pnp_spec
 from .pbvs import check_pose_task, check_sampled_gain, pose_options, theta_u
 
 __all__ = [
@@ -205,10 +206,16 @@ class TwoHalfD(Controller):
         rotation_from: ``"pose"`` (default; stereo P3P or PnP) or ``"homography"`` (monocular camera
             and four or more coplanar markers).
         reference_point: ``"centroid"`` (default, the markers' centroid) or a marker index.
+        pnp: The PnP method of the monocular pose (``rotation_from="pose"``), one of
+            :data:`~ibvs_youla.estimation.monocular_pose.PNP_METHODS` (default ``"sqpnp"``;
+            ``"ippe"`` for coplanar markers). The homography route and a stereo camera estimate no
+            PnP pose and take only the default.
 
     Raises:
         InvalidParameterError: a bad gain, an unknown ``rotation_from``, a ``reference_point`` that
-            is neither ``"centroid"`` nor an index; at reset, lambda T >= 2, an index out of range,
+            is neither ``"centroid"`` nor an index, an unknown ``pnp`` or one other than ``"sqpnp"``
+            with the homography route; at reset, ``pnp`` other than ``"sqpnp"`` with a stereo
+            camera, ``"ippe"`` with markers that are not coplanar, lambda T >= 2, an index out of range,
             too few markers or a camera of another kind (:func:`~.pbvs.check_pose_task`), and for
             the homography route a camera that is not a ``PinholeCamera`` or markers that are not
             coplanar (within 1e-6 of their extent).
@@ -218,10 +225,22 @@ class TwoHalfD(Controller):
     name = "2.5d"
 
     def __init__(
-        self, gain: float = 0.5, rotation_from: str = "pose", reference_point: str | int = "centroid"
+        self,
+        gain: float = 0.5,
+        rotation_from: str = "pose",
+        reference_point: str | int = "centroid",
+        pnp: str = "sqpnp",
     ) -> None:
         self.gain = positive(gain, "gain", unit="1/s")
         self.rotation_from = one_of(rotation_from, "rotation_from", ROTATION_SOURCES)
+        self.pnp = one_of(pnp, "pnp", PNP_METHODS)
+        if self.rotation_from == "homography" and self.pnp != "sqpnp":
+            raise InvalidParameterError(
+                "pnp",
+                self.pnp,
+                "'sqpnp' (the default) with rotation_from='homography', which estimates no PnP pose; "
+                "the PnP method acts with rotation_from='pose'",
+            )
         if isinstance(reference_point, str) and reference_point == "centroid":
             self.reference_point: str | int = "centroid"
         else:
@@ -233,12 +252,13 @@ class TwoHalfD(Controller):
                 ) from None
 
     def spec(self) -> dict[str, Any]:
-        """Name, class, gain [1/s], rotation source and reference point."""
+        """Name, class, gain [1/s], rotation source, reference point, PnP method unless the default."""
         return {
             **super().spec(),
             "gain": self.gain,
             "rotation_from": self.rotation_from,
             "reference_point": self.reference_point,
+            **pnp_spec(self.pnp),
         }
 
     # ------------------------------------------------------------------ run
@@ -267,7 +287,7 @@ class TwoHalfD(Controller):
         self._Z_target = float(P_target[2])  # Z* [m]
         self._m_ref_target = P_target / P_target[2]  # [x*, y*, 1]
         self._F = float(task.camera.focal_length)
-        self._options = pose_options(task)
+        self._options = pose_options(task, self.pnp)
         # the camera pose of each frame (estimate_camera_pose, its arguments checked once)
         self.pose_estimator = CameraPoseEstimator(task.camera, task.markers_O, **self._options)
         if self.rotation_from == "homography":

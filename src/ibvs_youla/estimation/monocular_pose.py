@@ -16,6 +16,15 @@ function for one camera and one set of points, checked once: the controllers cal
 frame with the sensor's features (it checks only their shape), and get the same poses. Given a
 frame's measured depths too (a depth sensor, an RGB-D camera), it fits the points back-projected
 at them to the known points (Kabsch, as stereo P3P does with triangulated points): no PnP.
+
+Every controller that estimates a monocular pose takes the method as its ``pnp`` option
+(``iy.controllers.make("pbvs", pnp="ippe")``; default ``"sqpnp"``), which :func:`pnp_options`
+turns into the estimator's options. IPPE (Collins & Bartoli, "Infinitesimal plane-based pose
+estimation", IJCV 109(3), 2014) solves the planar case in closed form: exact on noise-free
+coplanar points, and cheaper per call than SQPnP (a closed form, where SQPnP runs its SQP from
+several starts; ``docs/benchmarks.md`` times SQPnP in the monocular loop). On markers off one
+plane OpenCV's IPPE fails at every call, so :class:`CameraPoseEstimator` refuses it at
+construction (relative out-of-plane extent above :data:`IPPE_COPLANAR_TOLERANCE`).
 """
 
 from __future__ import annotations
@@ -30,7 +39,14 @@ from ..exceptions import InvalidArrayError, InvalidParameterError, PoseEstimatio
 from ..model.camera import PinholeCamera, StereoCamera, points_at_depths, triangulate_points
 from .stereo_pose import check_marker_geometry, estimate_pose, kabsch_centred
 
-__all__ = ["PNP_METHODS", "CameraPoseEstimator", "estimate_camera_pose", "estimate_pose_monocular"]
+__all__ = [
+    "IPPE_COPLANAR_TOLERANCE",
+    "PNP_METHODS",
+    "CameraPoseEstimator",
+    "estimate_camera_pose",
+    "estimate_pose_monocular",
+    "pnp_options",
+]
 
 _PNP_FLAGS = {
     "sqpnp": "SOLVEPNP_SQPNP",
@@ -40,6 +56,32 @@ _PNP_FLAGS = {
 }
 
 PNP_METHODS = ("sqpnp", "epnp", "iterative", "ippe")  # OpenCV's SOLVEPNP_* flags, by name
+# IPPE needs coplanar points: smallest / largest singular value of the centred points at most this
+# (round-off of points on one plane is ~1e-16 relative; as the moment law's COPLANAR_TOLERANCE)
+IPPE_COPLANAR_TOLERANCE = 1e-9
+
+
+def pnp_options(camera: StereoCamera | PinholeCamera, pnp: str) -> dict[str, Any]:
+    """The :class:`CameraPoseEstimator` options of a controller's ``pnp`` choice for its camera.
+
+    Monocular: ``{"method": pnp}``. Stereo: ``{}`` for the default ``"sqpnp"`` (a stereo camera
+    estimates its pose by P3P on triangulated points, no PnP); another value would not act, so it
+    is refused. Unvalidated ``pnp`` beyond that: the controller checked it against
+    :data:`PNP_METHODS` at construction.
+
+    Raises:
+        InvalidParameterError: ``pnp`` other than ``"sqpnp"`` with a ``StereoCamera``.
+    """
+    if isinstance(camera, StereoCamera):
+        if pnp != "sqpnp":
+            raise InvalidParameterError(
+                "pnp",
+                pnp,
+                "'sqpnp' (the default) with a StereoCamera: it estimates its pose by stereo P3P; the "
+                "PnP method applies to a monocular PinholeCamera",
+            )
+        return {}
+    return {"method": pnp}
 
 
 def estimate_pose_monocular(
@@ -147,8 +189,10 @@ class CameraPoseEstimator:
 
     Raises:
         InvalidParameterError, InvalidArrayError, DegenerateMarkersError: as :func:`estimate_camera_pose`
-            for the camera, the points and the options; per call, features of another shape
-            (InvalidArrayError), and the errors of the estimate itself.
+            for the camera, the points and the options, and ``method="ippe"`` with markers that are
+            not coplanar (:data:`IPPE_COPLANAR_TOLERANCE`), once here rather than at every call;
+            per call, features of another shape (InvalidArrayError), and the errors of the
+            estimate itself.
     """
 
     def __init__(self, camera: StereoCamera | PinholeCamera, P_ref: Any, **options: Any) -> None:
@@ -174,6 +218,16 @@ class CameraPoseEstimator:
                 raise InvalidArrayError(
                     "P_ref", f"{n} points", "four or more points: three leave up to four poses"
                 )
+            if self._method == "ippe":
+                sv = np.linalg.svd(self._centred, compute_uv=False)
+                if sv[-1] > IPPE_COPLANAR_TOLERANCE * sv[0]:
+                    raise InvalidParameterError(
+                        "method",
+                        "ippe",
+                        f"'sqpnp', 'epnp' or 'iterative' for these markers: IPPE needs coplanar markers "
+                        f"(relative out-of-plane extent <= {IPPE_COPLANAR_TOLERANCE:g}; here "
+                        f"{sv[-1] / sv[0]:.3g})",
+                    )
             self._flag = getattr(cv2, _PNP_FLAGS[self._method])
             self._P = np.ascontiguousarray(P)
             self._shapes = ((n, 2), (2 * n,))

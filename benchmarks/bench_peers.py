@@ -16,7 +16,9 @@ too.
   step lambda T = 0.02 (its step has no period); every step timed alone; its median.
 * **ibvs-youla**: ``simulate(scenario, "ibvs-current", plant="free-camera",
   camera=PinholeCamera.normalized(), ...)`` with ``sensor="depth"`` (the depths measured, as ViSP's)
-  and without (``monocular``: the depths from OpenCV's SQPnP pose at every frame); and, for scale,
+  and without (``monocular``: the depths from OpenCV's SQPnP pose at every frame, the default;
+  ``monocular, IPPE``: from IPPE's, the controller's ``pnp="ippe"``, exact for coplanar points as the
+  tutorial's are); and, for scale,
   ``sensor="depth"`` through the plug-in loop (``loop="plug-in"``), where ``simulate`` has it. Its
   step is the marginal cost of a step: (median wall of a run of 2 N steps - median wall of a run of
   N steps) / N, each run a whole ``simulate`` call (set-up included in both, so it cancels; it is
@@ -31,7 +33,8 @@ get there (``v_max``, ``w_max`` of its report).
 
 Ratios are of medians measured in one run, the peers and our runs alternating in ``--rounds`` rounds
 so that all see the same machine. Targets: ours with measured depth <= 3x ViSP's iteration and >= 20x
-faster than MVTB's step; monocular (PnP) <= 6x ViSP's.
+faster than MVTB's step; monocular (PnP) <= 6x ViSP's, reported for either solver
+(``met["monocular_over_visp"]``: SQPnP, ``met["monocular_ippe_over_visp"]``: IPPE).
 
 Run: ``python benchmarks/bench_peers.py --json benchmarks/reports/peers.json``.
 """
@@ -73,13 +76,15 @@ def _T_O_C(t: list[float], theta_u_deg: list[float]) -> np.ndarray:
 START, TARGET = _T_O_C([0.15, -0.1, 1.0], [10, -10, 50]), _T_O_C([0.0, 0.0, 0.75], [0, 0, 0])
 
 
-def _ours(steps: int, sensor: str | None, loop: str | None) -> Any:
-    """One ``simulate`` of the tutorial case, ``steps`` steps (``steps + 1`` frames)."""
+def _ours(steps: int, sensor: str | None, loop: str | None, pnp: str | None = None) -> Any:
+    """One ``simulate`` of the tutorial case, ``steps`` steps (``steps + 1`` frames); ``pnp``: the
+    monocular law's PnP solver (the controller's ``pnp`` option; None: its default, SQPnP)."""
     scenario = iy.Scenario.free_camera(T_O_C_start=START, T_O_C_target=TARGET, markers_O=POINTS_O)
     extra = {} if loop is None else {"loop": loop}
+    options = {} if pnp is None else {"pnp": pnp}
     return iy.simulate(
         scenario,
-        iy.controllers.make("ibvs-current", gain=GAIN),
+        iy.controllers.make("ibvs-current", gain=GAIN, **options),
         plant="free-camera",
         camera=iy.PinholeCamera.normalized(1.0 / PERIOD),
         duration=steps * PERIOD,
@@ -89,12 +94,21 @@ def _ours(steps: int, sensor: str | None, loop: str | None) -> Any:
     )
 
 
-def _modes() -> dict[str, tuple[str | None, str | None]]:
-    """Our variants: (sensor, loop); the plug-in loop where simulate can be told to take it."""
-    modes: dict[str, tuple[str | None, str | None]] = {"depth": ("depth", None), "monocular": (None, None)}
+def _modes() -> dict[str, tuple[str | None, str | None, str | None]]:
+    """Our variants: (sensor, loop, pnp); the plug-in loop where simulate can be told to take it, IPPE
+    (the four points are coplanar) where the controller takes a ``pnp`` option."""
+    modes: dict[str, tuple[str | None, str | None, str | None]] = {
+        "depth": ("depth", None, None),
+        "monocular": (None, None, None),
+    }
+    try:
+        iy.controllers.make("ibvs-current", pnp="ippe")
+        modes["monocular, IPPE"] = (None, None, "ippe")
+    except iy.exceptions.InvalidParameterError:  # a version without the option
+        pass
     if "loop" in inspect.signature(iy.simulate).parameters:
-        modes["depth, plug-in loop"] = ("depth", "plug-in")
-        modes["monocular, plug-in loop"] = (None, "plug-in")
+        modes["depth, plug-in loop"] = ("depth", "plug-in", None)
+        modes["monocular, plug-in loop"] = (None, "plug-in", None)
     return modes
 
 
@@ -143,8 +157,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     }
 
     modes = _modes()
-    for sensor, loop in modes.values():  # warm-up: compiled kernels, caches
-        _ours(steps, sensor, loop)
+    for sensor, loop, pnp in modes.values():  # warm-up: compiled kernels, caches
+        _ours(steps, sensor, loop, pnp)
     cpu = CpuShare()
     walls: dict[str, dict[int, list[float]]] = {m: {steps: [], 2 * steps: []} for m in modes}
     visp_reports: list[dict[str, Any]] = []
@@ -156,10 +170,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         if mvtb_python is not None:
             mvtb_reports.append(mvtb.run(mvtb_python, "mvtb_ibvs_4pts.py", mvtb_setup))
         for _ in range(args.ours_repeats):
-            for mode, (sensor, loop) in modes.items():
+            for mode, (sensor, loop, pnp) in modes.items():
                 for n in (steps, 2 * steps):
                     t0 = perf_counter()
-                    result = _ours(n, sensor, loop)
+                    result = _ours(n, sensor, loop, pnp)
                     walls[mode][n].append(perf_counter() - t0)
                     if n == steps:
                         results[mode] = result
@@ -214,6 +228,10 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             ratios[f"{mode} / visp"] = o["step_us"] / v
         met["depth_over_visp"] = ratios["depth / visp"] <= TARGETS["depth_over_visp_max"]
         met["monocular_over_visp"] = ratios["monocular / visp"] <= TARGETS["monocular_over_visp_max"]
+        if "monocular, IPPE / visp" in ratios:  # the same target, the option's solver
+            met["monocular_ippe_over_visp"] = (
+                ratios["monocular, IPPE / visp"] <= TARGETS["monocular_over_visp_max"]
+            )
     if "mvtb" in peers:
         for mode, o in ours.items():
             ratios[f"mvtb / {mode}"] = peers["mvtb"]["step_us"] / o["step_us"]

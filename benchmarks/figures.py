@@ -217,7 +217,8 @@ def peers(r: Report) -> str:
     labels = {
         "depth": 'ibvs-youla, measured depth (`sensor="depth"`)',
         "depth, plug-in loop": 'ibvs-youla, measured depth, `loop="plug-in"`',
-        "monocular": "ibvs-youla, monocular (SQPnP depths)",
+        "monocular": "ibvs-youla, monocular (SQPnP depths, the default)",
+        "monocular, IPPE": 'ibvs-youla, monocular (IPPE depths, `pnp="ippe"`)',
         "monocular, plug-in loop": 'ibvs-youla, monocular, `loop="plug-in"`',
     }
     for mode, o in r["ours"].items():

@@ -258,13 +258,16 @@ def test_peers_benchmark_writes_our_steps_and_its_table(tmp_path):
     ]
     report = load("bench_peers").main(argv)
     saved = json.loads(out.read_text())
-    assert saved["ours"].keys() == report["ours"].keys() >= {"depth", "monocular", "depth, plug-in loop"}
-    assert saved["ours"]["depth"]["loop"] == "compiled" and saved["ours"]["monocular"]["loop"] == "compiled"
+    modes = {"depth", "monocular", "monocular, IPPE", "depth, plug-in loop"}
+    assert saved["ours"].keys() == report["ours"].keys() >= modes
+    compiled = ("depth", "monocular", "monocular, IPPE")
+    assert all(saved["ours"][mode]["loop"] == "compiled" for mode in compiled)
     assert saved["ours"]["monocular, plug-in loop"]["loop"] == "plug-in"
     assert all(finite_positive(o["run_ms"]) for o in saved["ours"].values())
     assert saved["peers"] == {} and saved["ratios"] == {} and saved["targets"]["met"] == {}
     table = load("figures").peers(saved)
     assert "measured depth" in table and "ViSP 3.5" not in table and "| n/a | n/a |" in table
+    assert 'IPPE depths, `pnp="ippe"`' in table
 
 
 def test_batch_benchmark_writes_the_case_frame_and_its_table(tmp_path):

@@ -165,6 +165,8 @@ class _ClusterKillingBatches:
     def nthreads(self):
         return {"tcp://127.0.0.1:1": 1}
 
+    status = "running"  # a Dask client's, until it gives its scheduler up
+
     def as_current(self):  # the loop waits on this client, not the process's default one
         return contextlib.nullcontext()
 

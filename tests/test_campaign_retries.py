@@ -64,6 +64,8 @@ class FakeCluster:
     def nthreads(self):
         return dict.fromkeys(self.durations, 1)
 
+    status = "running"  # a Dask client's, until it gives its scheduler up
+
     def as_current(self):  # the loop waits on this client, not the process's default one
         return contextlib.nullcontext()
 

@@ -350,12 +350,12 @@ def test_a_lost_scheduler_is_one_line_and_keeps_the_rows(tmp_path, cluster, proc
     assert not rows["key"].duplicated().any()
 
 
-class _SlowWriter:
-    """A row writer whose first due-time question returns only once ``until()`` holds: the campaign's
-    thread busy between submitting runs and waiting for them."""
+class _WriterThatKillsTheScheduler:
+    """A row writer whose first due-time question (the campaign's thread between submitting its runs
+    and waiting for them) kills the scheduler and returns once the client gave up reconnecting."""
 
-    def __init__(self, writer, until):
-        self.writer, self.until, self.asked = writer, until, False
+    def __init__(self, writer, scheduler, client):
+        self.writer, self.scheduler, self.client, self.asked = writer, scheduler, client, False
 
     def __getattr__(self, name):
         return getattr(self.writer, name)
@@ -366,8 +366,19 @@ class _SlowWriter:
     def seconds_until_due(self):
         if not self.asked:
             self.asked = True
-            _wait_for(self.until, 60, "the client to close")
+            _kill_and_wait_for_the_client_to_close(self.scheduler, self.client)
         return self.writer.seconds_until_due()
+
+
+def _kill_and_wait_for_the_client_to_close(scheduler, client):
+    scheduler.send_signal(signal.SIGKILL)
+    scheduler.communicate(timeout=30)
+    _wait_for(lambda: client.status == "closed", 60, "the client to close")
+
+
+def _listening(port):
+    with socket.socket() as probe:
+        return probe.connect_ex(("127.0.0.1", port)) == 0
 
 
 @pytest.mark.parametrize("closes", ["before the call", "between submitting and waiting"])
@@ -376,7 +387,8 @@ def test_a_client_that_gave_up_reconnecting_is_a_lost_scheduler(tmp_path, proces
     while the campaign's thread was busy; Dask's module-level wait() then found no default client ("No
     clients found", reported as an internal error), and client.map on a closed client raises
     ClosedClientError. Both are the lost scheduler's one line. A scheduler with no workers keeps the
-    runs pending, and the writer holds the thread until the client closed, so the order is certain."""
+    runs pending; the scheduler is killed, and the client closed, before the call or between the
+    runs' submission and the wait for them, so the order is certain."""
     from ibvs_youla.campaign import storage
     from ibvs_youla.campaign.runner import SchedulerError
 
@@ -385,25 +397,23 @@ def test_a_client_that_gave_up_reconnecting_is_a_lost_scheduler(tmp_path, proces
     address = f"tcp://127.0.0.1:{port}"
     command = [dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"]
     processes.append(subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
-    _wait_for(lambda: socket.socket().connect_ex(("127.0.0.1", port)) == 0, 60, "the scheduler to listen")
+    scheduler = processes[-1]
+    _wait_for(lambda: _listening(port), 60, "the scheduler to listen")
     definition = CampaignDefinition(**{**DEFINITION, "cases": 2, "controllers": ("pbvs",)})
     storage.create_folder(tmp_path, definition.to_dict())
     summary = runner.CampaignSummary(tmp_path, 2, 0)
     bar = runner._progress_bar(2, 0, False)
-    client = Client(address, timeout=3)  # gives up reconnecting after 3 s
+    client = Client(address, timeout=5)  # gives up reconnecting after 5 s
     try:
-        closed = lambda: client.status in ("closing", "closed")  # noqa: E731
         writer = storage.RowWriter(tmp_path, 100, 1e9)
-        processes[-1].send_signal(signal.SIGKILL)
-        processes[-1].communicate(timeout=30)
         if closes == "before the call":
-            _wait_for(closed, 60, "the client to close")
+            _kill_and_wait_for_the_client_to_close(scheduler, client)
         else:
-            writer = _SlowWriter(writer, closed)
+            writer = _WriterThatKillsTheScheduler(writer, scheduler, client)
         with pytest.raises(SchedulerError, match=f"scheduler {address}: lost the connection, runs cancelled"):
             specs = definition.specs()
             runner._run_dask(client, specs, writer, summary, bar, tmp_path, False, threading.Event())
-        assert closes == "before the call" or writer.asked  # the thread was held between submit and wait
+        assert closes == "before the call" or writer.asked  # killed between submit and wait
     finally:
         client.close()
 
@@ -466,6 +476,8 @@ class _ClusterWithAKiller:
 
     def nthreads(self):
         return {"tcp://127.0.0.1:1": 1}
+
+    status = "running"  # a Dask client's, until it gives its scheduler up
 
     def as_current(self):  # the loop waits on this client, not the process's default one
         return contextlib.nullcontext()

@@ -429,9 +429,24 @@ def _workers_ignore_ctrl_c() -> Iterator[None]:
 
 
 def _address(client: Any) -> str:
-    """The scheduler's address: a closed client has no scheduler object left, only its given address."""
+    """The scheduler's address; a closed client keeps only what it was given ("unknown" for a cluster)."""
     scheduler = getattr(client, "scheduler", None)
-    return str(scheduler.address if scheduler is not None else getattr(client, "_start_arg", "unknown"))
+    if scheduler is not None:
+        return str(scheduler.address)
+    given = getattr(client, "_start_arg", None)
+    return given if isinstance(given, str) else "unknown"
+
+
+def _check_connected(client: Any) -> None:
+    """Raise ``CommClosedError`` when the client gave up its scheduler ("closing" or "closed").
+
+    Its futures would never finish: one submitted while it closes is not even cancelled, and a wait
+    on it only times out, poll after poll.
+    """
+    from distributed.comm import CommClosedError
+
+    if client.status in ("closing", "closed"):
+        raise CommClosedError(f"the Dask client is {client.status}")
 
 
 def _nthreads(client: Any) -> dict[str, int]:
@@ -508,23 +523,15 @@ def _run_dask(
     from distributed.client import ClosedClientError
     from distributed.comm import CommClosedError
 
-    def lost() -> SchedulerError:
-        return SchedulerError(
-            _address(client),
-            f"lost the connection, runs cancelled; the {writer.written + len(writer)} rows returned by "
-            "this call are stored: rerun the same command to resume",
-        )
-
+    address = _address(client)  # while the client still has its scheduler
     try:
         _collect(client, pending, writer, summary, bar, path, series, terminated, run_timeout)
     except (CancelledError, CommClosedError, ClosedClientError):  # the scheduler, or the link to it, is gone
-        raise lost() from None
-    except Exception:
-        # the client gave up reconnecting and closed while this call was between two of its requests:
-        # whatever the next request raised, the cause is the lost scheduler
-        if client.status in ("closing", "closed"):
-            raise lost() from None
-        raise
+        raise SchedulerError(
+            address,
+            f"lost the connection, runs cancelled; the {writer.written + len(writer)} rows returned by "
+            "this call are stored: rerun the same command to resume",
+        ) from None
 
 
 Task = tuple[ExperimentSpec, ...]  # the runs of one task: one, or several of one batch key
@@ -628,6 +635,7 @@ def _collect(
 
     while queue or in_flight or suspects:
         _stop_if(terminated)
+        _check_connected(client)
         if queue and len(in_flight) < window:
             submit([queue.pop() for _ in range(min(window - len(in_flight), len(queue)))], 2)
         elif not queue and not in_flight and suspects:  # alone on the cluster, after every other run
@@ -646,6 +654,7 @@ def _collect(
                 finished, _ = wait([*in_flight, *stale], timeout=poll, return_when="FIRST_COMPLETED")
         except TimeoutError:
             finished = set()
+        _check_connected(client)  # a closing client's futures time out, poll after poll
         for future in finished:
             if future.status in ("lost", "pending"):  # its result died with a worker: recomputed
                 continue

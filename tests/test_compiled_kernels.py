@@ -19,6 +19,7 @@ import textwrap
 import numpy as np
 import pytest
 from scipy.linalg import lapack
+from scipy.spatial.transform import Rotation
 
 from ibvs_youla._linalg import gesdd
 from ibvs_youla.control.discrete import DiscreteFilter, filter_step
@@ -460,9 +461,11 @@ def test_current_interaction_equals_its_reference():
         )
         rows = feature_rows(task, "test")
         fast, sensor = CurrentInteraction(task, rows), MarkerSensor(camera, P_O, virtual_points=allow_behind)
-        for _ in range(50):
+        for k in range(50):
             T = np.eye(4)
             T[:3, 3] = rng.normal(0.0, 0.05, 3) + ([0.0, 0.0, -0.75] if rows == 2 else 0.0)
+            if k % 2:  # turned views too: the monocular depths' arithmetic shows with a rotation
+                T[:3, :3] = Rotation.from_rotvec(rng.normal(0.0, 0.2, 3)).as_matrix()
             features = sensor.features_at(T)
             np.testing.assert_array_equal(fast(features), current_interaction_matrix(task, features, rows))
 

@@ -6,9 +6,11 @@ L(s, Z) at the measured features with depths from the controller's own model:
 * stereo (a ``StereoCamera``, >= 3 points, 3 rows per point): the points triangulated from the
   features (Eq. (C6)-(C8) of the paper, :func:`~ibvs_youla.model.camera.triangulate_points`);
 * monocular (a ``PinholeCamera``, >= 4 points, 2 rows per point): the camera pose estimated
-  from the image, ``estimate_camera_pose(task.camera, features, task.markers_O)`` (SQPnP, or the
-  controller's ``pnp`` method: :func:`~ibvs_youla.estimation.monocular_pose.pnp_options`), and
-  the believed markers give the depths Z_i; the points are back-projected, X = u Z / F.
+  from the image by OpenCV's PnP (SQPnP, or the controller's ``pnp`` method:
+  :func:`~ibvs_youla.estimation.monocular_pose.pnp_options`), and the believed markers' depths
+  Z_i in it (r_3 . P_i + t_z of the PnP's [R | t],
+  :func:`~ibvs_youla.estimation.monocular_pose.marker_depths_monocular`); the points are
+  back-projected, X = u Z / F.
 
 A frame that carries measured depths (a depth sensor, :attr:`~.base.CameraFrame.depth`) gives
 the depths instead, with no estimate: the points are back-projected at them, X = u Z / F,
@@ -26,8 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._geometry import inverse_pose, transform_points
-from ..estimation.monocular_pose import CameraPoseEstimator, estimate_camera_pose, pnp_options
+from ..estimation.monocular_pose import CameraPoseEstimator, marker_depths_monocular, pnp_options
 from ..exceptions import InvalidParameterError
 from ..model.camera import (
     PinholeCamera,
@@ -90,12 +91,13 @@ def pnp_spec(pnp: str) -> dict[str, str]:
 
 
 def current_interaction_matrix(
-    task: ServoTask, features: np.ndarray, rows: int, depth: np.ndarray | None = None
+    task: ServoTask, features: np.ndarray, rows: int, depth: np.ndarray | None = None, pnp: str = "sqpnp"
 ) -> np.ndarray:
     """L(s, Z) (m, 6) at the measured features, depths measured or from the controller's model.
 
     The plain reference of :class:`CurrentInteraction`, which the controllers call at every frame
-    (module docstring); ``depth`` (n,) [m] is a frame's measured depths, None for none.
+    (module docstring); ``depth`` (n,) [m] is a frame's measured depths, None for none; ``pnp`` the
+    monocular pose's PnP method. (It does not fall back from IPPE to SQPnP as the estimator does.)
     """
     camera, n = task.camera, task.n_points
     if depth is not None:
@@ -103,8 +105,7 @@ def current_interaction_matrix(
     elif rows == 3:
         P_C = triangulate_points(camera, features.reshape(n, 3), task.virtual_points)
     else:
-        T_O_C = estimate_camera_pose(camera, features, task.markers_O)
-        Z = transform_points(inverse_pose(T_O_C), task.markers_O)[:, 2]  # [m]
+        Z = marker_depths_monocular(camera, features, task.markers_O, pnp)  # [m]
         P_C = np.column_stack((features.reshape(n, 2) * (Z / camera.focal_length)[:, None], Z))
     return points_interaction_matrix(camera, P_C, task.virtual_points)
 

@@ -23,8 +23,11 @@ turns into the estimator's options. IPPE (Collins & Bartoli, "Infinitesimal plan
 estimation", IJCV 109(3), 2014) solves the planar case in closed form: exact on noise-free
 coplanar points, and cheaper per call than SQPnP (a closed form, where SQPnP runs its SQP from
 several starts; ``docs/benchmarks.md`` times SQPnP in the monocular loop). On markers off one
-plane OpenCV's IPPE fails at every call, so :class:`CameraPoseEstimator` refuses it at
-construction (relative out-of-plane extent above :data:`IPPE_COPLANAR_TOLERANCE`).
+plane OpenCV's IPPE returns a pose biased in proportion to the off-plane extent (measured with
+OpenCV 5.1: 7e-8 m for 1e-6 of it, 6e-5 m for 1e-3) and finds none from about 1e-2, so
+:class:`CameraPoseEstimator` refuses it at construction for markers off one plane by more than
+rounding (relative out-of-plane extent above :data:`IPPE_COPLANAR_TOLERANCE`): where IPPE is
+accepted its pose is exact for the points given; markers measured off one plane take SQPnP.
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ __all__ = [
     "CameraPoseEstimator",
     "estimate_camera_pose",
     "estimate_pose_monocular",
+    "marker_depths_monocular",
     "pnp_options",
 ]
 
@@ -57,8 +61,9 @@ _PNP_FLAGS = {
 }
 
 PNP_METHODS = ("sqpnp", "epnp", "iterative", "ippe")  # OpenCV's SOLVEPNP_* flags, by name
-# IPPE needs coplanar points: smallest / largest singular value of the centred points at most this
-# (round-off of points on one plane is ~1e-16 relative; as the moment law's COPLANAR_TOLERANCE)
+# IPPE is exact for coplanar points: smallest / largest singular value of the centred points at most
+# this (points on one plane to rounding, ~1e-16 relative, with margin; the moment law's
+# COPLANAR_TOLERANCE is the same 1e-9). Beyond it IPPE's pose is biased (module docstring).
 IPPE_COPLANAR_TOLERANCE = 1e-9
 # OpenCV's IPPE can return a NaN pose (with success) for a view within rounding of fronto-parallel,
 # where its two solutions coincide: measured at the converged target of ViSP's tutorial case (R_C_ref
@@ -110,6 +115,26 @@ def estimate_pose_monocular(
         DegenerateMarkersError: coincident or collinear points.
         PoseEstimationError: OpenCV found no pose (e.g. ``"ippe"`` on non-planar points).
     """
+    return _pose(*_checked_pnp(camera, features, P_ref, method)[1:])
+
+
+def marker_depths_monocular(
+    camera: PinholeCamera, features: Any, P_ref: Any, method: str = "sqpnp"
+) -> np.ndarray:
+    """Z_C (n,) [m]: the depth of each point P_ref in the camera pose the features give.
+
+    Z_i = r_3 . P_i + t_z from OpenCV's PnP, [R_C_ref | t_C], as
+    :meth:`CameraPoseEstimator.marker_depths` (the same floats), with the arguments and errors of
+    :func:`estimate_pose_monocular`.
+    """
+    P, R_C_ref, t_C = _checked_pnp(camera, features, P_ref, method)
+    return P @ R_C_ref[2] + t_C[2]  # type: ignore[no-any-return]
+
+
+def _checked_pnp(
+    camera: PinholeCamera, features: Any, P_ref: Any, method: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(P_ref contiguous (n, 3), R_C_ref, t_C): :func:`estimate_pose_monocular`'s checks, then the PnP."""
     import cv2
 
     instance(camera, "camera", PinholeCamera, "a PinholeCamera (a StereoCamera: estimate_pose, stereo P3P)")
@@ -124,26 +149,28 @@ def estimate_pose_monocular(
             "features", f"an array of shape {p.shape}", f"shape ({n}, 2) or ({2 * n},): [u, v] for each point"
         )
     normalized = np.ascontiguousarray(p.reshape(n, 2) / camera.focal_length)
-    return _solve_pnp(
-        np.ascontiguousarray(P_ref), normalized, method, getattr(cv2, _PNP_FLAGS[method]), _EYE3
-    )
+    P = np.ascontiguousarray(P_ref)
+    return (P, *_solve_pnp_C(P, normalized, method, getattr(cv2, _PNP_FLAGS[method]), _EYE3))
 
 
 _EYE3 = np.eye(3)
 _EYE3.setflags(write=False)
 
 
-def _solve_pnp(
-    P_ref: np.ndarray, normalized: np.ndarray, method: str, flag: int, K: np.ndarray
-) -> np.ndarray:
-    """T_ref_C from contiguous points P_ref (n, 3) and normalized image points (n, 2): OpenCV's solvePnP."""
-    return _pose(*_solve_pnp_C(P_ref, normalized, method, flag, K))
-
-
 def _solve_pnp_C(
     P_ref: np.ndarray, normalized: np.ndarray, method: str, flag: int, K: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """(R_C_ref (3, 3), t_C (3,)): the points' frame in the camera's, as OpenCV's solvePnP gives it."""
+    solution = _pnp_or_none(P_ref, normalized, method, flag, K)
+    if solution is None:
+        raise PoseEstimationError(method, f"OpenCV solvePnP ({method}) found no pose for {len(P_ref)} points")
+    return solution
+
+
+def _pnp_or_none(
+    P_ref: np.ndarray, normalized: np.ndarray, method: str, flag: int, K: np.ndarray
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """:func:`_solve_pnp_C`, None where OpenCV reports no pose or a non-finite one (raises on its errors)."""
     import cv2
 
     try:
@@ -152,7 +179,7 @@ def _solve_pnp_C(
         raise PoseEstimationError(method, f"OpenCV solvePnP ({method}) failed: {exc}") from None
     finite = math.isfinite(rvec.sum() + tvec.sum()) or (np.isfinite(rvec).all() and np.isfinite(tvec).all())
     if not ok or not finite:
-        raise PoseEstimationError(method, f"OpenCV solvePnP ({method}) found no pose for {len(P_ref)} points")
+        return None
     return cv2.Rodrigues(rvec)[0], tvec.ravel()
 
 
@@ -315,14 +342,22 @@ class CameraPoseEstimator:
         if self._last_pnp is not None and self._last_pnp[0] == key:
             return self._last_pnp[1]
         normalized = np.ascontiguousarray(features.reshape(self._n, 2) / self.camera.focal_length)
-        try:
+        if self._method != "ippe":
             solution = _solve_pnp_C(self._P, normalized, self._method, self._flag, _EYE3)
-        except PoseEstimationError:
-            if self._method != "ippe":
-                raise
-            import cv2
+        else:
+            found = _pnp_or_none(self._P, normalized, "ippe", self._flag, _EYE3)
+            if found is None:  # IPPE_FALLBACK's view
+                import cv2
 
-            solution = _solve_pnp_C(self._P, normalized, IPPE_FALLBACK, cv2.SOLVEPNP_SQPNP, _EYE3)
-            self.fallbacks += 1
+                flag = getattr(cv2, _PNP_FLAGS[IPPE_FALLBACK])
+                found = _pnp_or_none(self._P, normalized, IPPE_FALLBACK, flag, _EYE3)
+                if found is None:
+                    raise PoseEstimationError(
+                        "ippe",
+                        f"OpenCV solvePnP (ippe) found no pose for {self._n} points, nor did its "
+                        f"fallback ({IPPE_FALLBACK})",
+                    )
+                self.fallbacks += 1
+            solution = found
         self._last_pnp = (key, solution)
         return solution

@@ -307,19 +307,32 @@ def test_an_image_ippe_finds_no_pose_for_is_solved_by_sqpnp():
 def test_the_tutorial_run_with_ippe_holds_its_converged_target():
     """ViSP's tutorial case for 120 s with pnp="ippe": it converges and stays (the run met the view
     above at t = 33.68 s and ended "estimate_failed" before the fallback); the features end on the
-    target's to 1e-7, as the SQPnP run's."""
+    target's to 1e-7, as the SQPnP run's. The images solved by SQPnP are counted in the metadata by
+    the compiled loop, the plug-in loop and simulate_batch alike; a run without any has no entry."""
     scenario = iy.Scenario.free_camera(T_O_C_start=TUTORIAL_START, T_O_C_target=TARGET, markers_O=SQUARE_O)
-    ends = {}
-    for pnp in ("ippe", "sqpnp"):
-        result = iy.simulate(
-            scenario,
-            iy.controllers.make("ibvs-current", pnp=pnp),
-            plant="free-camera",
-            camera=iy.PinholeCamera.normalized(25.0),
-            duration=120.0,
-            settings=SETTINGS,
-        )
-        assert result.metadata["status"] == "complete", result.metadata.get("error")
-        ends[pnp] = np.asarray(result.frame_features)[-1]
-    target = np.asarray(result.feature_target)
-    assert np.abs(ends["ippe"] - target).max() < 1e-7 and np.abs(ends["sqpnp"] - target).max() < 1e-7
+    kwargs = {
+        "plant": "free-camera",
+        "camera": iy.PinholeCamera.normalized(25.0),
+        "duration": 120.0,
+        "settings": SETTINGS,
+    }
+    results = {
+        "sqpnp": iy.simulate(scenario, iy.controllers.make("ibvs-current", pnp="sqpnp"), **kwargs),
+        "ippe": iy.simulate(scenario, iy.controllers.make("ibvs-current", pnp="ippe"), **kwargs),
+        "ippe, plug-in": iy.simulate(
+            scenario, iy.controllers.make("ibvs-current", pnp="ippe"), loop="plug-in", **kwargs
+        ),
+        "ippe, batch": iy.simulate_batch(
+            [scenario], iy.controllers.make("ibvs-current", pnp="ippe"), **kwargs
+        )[0],
+    }
+    target = np.asarray(results["sqpnp"].feature_target)
+    for name, result in results.items():
+        assert result.metadata["status"] == "complete", (name, result.metadata.get("error"))
+        assert np.abs(np.asarray(result.frame_features)[-1] - target).max() < 1e-7, name
+    assert "pnp_fallbacks" not in results["sqpnp"].metadata
+    assert results["ippe"].metadata["loop"] == "compiled"
+    assert results["ippe, batch"].metadata["loop"] == "batch"
+    counts = {name: results[name].metadata.get("pnp_fallbacks", 0) for name in results if name != "sqpnp"}
+    assert all(count > 0 for count in counts.values()), counts
+    assert counts["ippe"] == counts["ippe, batch"]  # the same calls in the same order

@@ -297,5 +297,8 @@ class BatchLoop:
             status = "interrupted" if state == INTERRUPTED else _STATUS[state]
             if status != "complete":
                 extra["error"] = "interrupted" if state == INTERRUPTED else self.reasons[c]
+            fallbacks = getattr(loop.pose_estimator, "fallbacks", 0)  # as simulate's with_pnp_fallbacks
+            if fallbacks:
+                extra["pnp_fallbacks"] = int(fallbacks)
             results.append(recorder.result(status=status, extra_metadata=extra))
         return results

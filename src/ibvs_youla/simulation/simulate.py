@@ -304,11 +304,24 @@ class PreparedRun:
             self.recorder.metadata["loop"] = "compiled"
             result = compiled.run(progress, self.label)
             if result is not None:
-                return result
+                return with_pnp_fallbacks(result, self.controller)
         self.recorder.metadata["loop"] = "plug-in"  # the roles' loop; also where the compiled one declined
-        return ServoLoop(
+        result = ServoLoop(
             *self.roles, self.recorder, self.command_signals, self.command_type, self.declared_shapes
         ).run(progress, self.label)
+        return with_pnp_fallbacks(result, self.controller)
+
+
+def with_pnp_fallbacks(result: SimulationResult, controller: Any) -> SimulationResult:
+    """``result`` with ``metadata["pnp_fallbacks"]`` when the controller's IPPE failed on some images.
+
+    Those images were solved by SQPnP (:data:`~ibvs_youla.estimation.monocular_pose.IPPE_FALLBACK`);
+    the entry is there only when there were some, so that other runs' metadata is as it was.
+    """
+    fallbacks = getattr(getattr(controller, "pose_estimator", None), "fallbacks", 0)
+    if fallbacks:
+        result.metadata["pnp_fallbacks"] = int(fallbacks)
+    return result
 
 
 def prepare_run(

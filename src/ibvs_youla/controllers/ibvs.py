@@ -185,9 +185,8 @@ class ClassicalIBVS(Controller):
         super().reset(task)
         self._feature_target = target
         self._rows = rows
-        self._interaction = CurrentInteraction(
-            task, rows, self.pnp
-        )  # L(s, Z), what does not change made once
+        # L(s, Z), what does not change made once
+        self._interaction = CurrentInteraction(task, rows, self.pnp)
         # monocular: the pose that gives L its depths (CameraPoseEstimator; None for stereo)
         self.pose_estimator = self._interaction.pose_estimator
         self._L_desired = self._L_desired_pinv = None

@@ -253,9 +253,8 @@ class MpcIBVS(Controller):
         super().reset(task)
         lower = np.tril(np.ones((N, N)))  # row j-1: V_j = sum_{i<j} v_i
         self._rows, self._target, self._F, self._T = rows, target, F, T
-        self._interaction = CurrentInteraction(
-            task, rows, self.pnp
-        )  # L(s, Z), what does not change made once
+        # L(s, Z), what does not change made once
+        self._interaction = CurrentInteraction(task, rows, self.pnp)
         self.pose_estimator = self._interaction.pose_estimator  # monocular: the pose giving L its depths
         self._A_img, self._b_img = A_img, b_img / F  # A_img (s / F) <= b_img / F, on normalized features
         self._lower = lower

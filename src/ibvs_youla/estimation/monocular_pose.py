@@ -283,13 +283,7 @@ class CameraPoseEstimator:
         back-projected at those depths (``points_at_depths``), fitted to the known points
         (Kabsch), for either camera.
         """
-        shape = getattr(features, "shape", None)
-        if shape not in self._shapes:
-            raise InvalidArrayError(
-                "features",
-                f"an array of shape {np.shape(features)}",
-                f"shape {self._shapes[0]} or {self._shapes[1]} for {self._n} points",
-            )
+        self._check_shape(features)
         key = features.tobytes() if depth is None else features.tobytes() + depth.tobytes()
         if self._last is not None and self._last[0] == key:
             return self._last[1].copy()
@@ -323,15 +317,18 @@ class CameraPoseEstimator:
                 type(self.camera).__name__,
                 "a PinholeCamera (a stereo camera triangulates its depths)",
             )
-        shape = getattr(features, "shape", None)
-        if shape not in self._shapes:
+        self._check_shape(features)
+        R_C_ref, t_C = self._pnp(features, features.tobytes())
+        return self._P @ R_C_ref[2] + t_C[2]  # type: ignore[no-any-return]
+
+    def _check_shape(self, features: np.ndarray) -> None:
+        """InvalidArrayError unless the features have the shape of this camera's for the points."""
+        if getattr(features, "shape", None) not in self._shapes:
             raise InvalidArrayError(
                 "features",
                 f"an array of shape {np.shape(features)}",
                 f"shape {self._shapes[0]} or {self._shapes[1]} for {self._n} points",
             )
-        R_C_ref, t_C = self._pnp(features, features.tobytes())
-        return self._P @ R_C_ref[2] + t_C[2]  # type: ignore[no-any-return]
 
     def _pnp(self, features: np.ndarray, key: bytes) -> tuple[np.ndarray, np.ndarray]:
         """(R_C_ref, t_C) of OpenCV's PnP on the features, solved again only for other features.

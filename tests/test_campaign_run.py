@@ -237,9 +237,14 @@ def test_a_real_cluster_losing_a_worker_stores_every_row_once(tmp_path, referenc
     out = tmp_path / "distributed"
     # The observer connects first, and the worker is killed as soon as the first batch of rows is
     # stored and a worker runs a task: the compiled runs take 10-50 ms, so the rest of the campaign
-    # can finish in the time a new client needs to connect, or while waiting for more rows.
+    # can finish in the time a new client needs to connect, or while waiting for more rows. The
+    # workers are warmed first (imports, compiled kernels of the batch and of PBVS): on a cold cache
+    # a worker's first tasks compile for seconds, its rows then arrive together at the end, and the
+    # first batch was stored only when nothing was left to run (a clean checkout's CI run, 2026-12-03).
     with Client(address, timeout=10) as observer:  # which worker runs a task now, and its pid
         pids = observer.run(os.getpid)  # worker address -> pid
+        warm = lambda texts: __import__("ibvs_youla.campaign.run").campaign.run.run_specs(texts)  # noqa: E731
+        observer.run(warm, [spec.to_json() for spec in CampaignDefinition(**DEFINITION).specs()[:6]])
         argv = [*CLI_ARGS, "--out", str(out), "--scheduler", address, "--series"]
         client = subprocess.Popen(
             [sys.executable, "-c", PYTHON_CLI, *argv],
@@ -249,18 +254,28 @@ def test_a_real_cluster_losing_a_worker_stores_every_row_once(tmp_path, referenc
         )
         processes.append(client)
         first_batch = lambda: _stored(out) >= BATCH_ROWS or client.poll() is not None  # noqa: E731
-        _wait_for(first_batch, 60, "the first batch of rows")
-        busy: list[str] = []
+        _wait_for(first_batch, 60, "the first batch of rows", poll=0.005)
+        # both workers frozen at once (SIGSTOP): the scheduler's view of who runs what holds still
+        # while it is asked, and the campaign cannot end meanwhile; unfrozen to look again if neither
+        # had a task
+        for worker in workers:
+            worker.send_signal(signal.SIGSTOP)
+        busy: list[str] = [w for w, tasks in observer.processing().items() if tasks]
+        if not busy:
+            for worker in workers:
+                worker.send_signal(signal.SIGCONT)
 
-        def a_worker_is_busy() -> bool:
-            busy[:] = [w for w, tasks in observer.processing().items() if tasks]
-            return bool(busy) or client.poll() is not None
+            def a_worker_is_busy() -> bool:
+                busy[:] = [w for w, tasks in observer.processing().items() if tasks]
+                return bool(busy) or client.poll() is not None
 
-        _wait_for(a_worker_is_busy, 10, "a worker running a task", poll=0.005)
+            _wait_for(a_worker_is_busy, 10, "a worker running a task", poll=0.005)
         assert busy, "the campaign ended before a worker could be killed mid-task"
         stored_at_kill = _stored(out)
         (victim,) = [w for w in workers if w.pid == pids[busy[0]]]
         victim.send_signal(signal.SIGKILL)
+        for worker in workers:
+            worker.send_signal(signal.SIGCONT)  # the other goes on (the victim was killed stopped)
     stdout, stderr = client.communicate(timeout=120)
     assert client.returncode == 0, stderr
     assert victim.wait(timeout=10) == -signal.SIGKILL and sum(w.poll() is None for w in workers) == 1

@@ -379,3 +379,39 @@ def test_toml_errors_name_the_key(tmp_path, content, key):
         cfg.make_arm()
     assert key in str(info.value), info.value
     assert info.value.name.startswith(key.rstrip(".")), info.value.name
+
+
+def test_an_output_folder_another_process_makes_meanwhile_is_accepted(tmp_path, monkeypatch):
+    """Two runs started together with one --out: each tries to create the folder (then removes it
+    again). The one whose mkdir finds the other's folder takes it as made, not as "cannot be created
+    (File exists)" (a clean checkout's CI run, 2026-12-03, in test_reproduce_interrupted.py), and
+    leaves it to its maker, whose trial folder may by then hold files."""
+    from pathlib import Path
+
+    from ibvs_youla.cli.arguments import folder_path
+
+    out = tmp_path / "out" / "run"
+    real_mkdir = Path.mkdir
+
+    def the_other_process_first(self, *args, **kwargs):
+        real_mkdir(self, *args, **kwargs)  # made by the other process ...
+        if self == out:
+            (self / "rows.part").write_text("")  # ... which writes into its run
+        raise FileExistsError(17, "File exists", str(self))
+
+    monkeypatch.setattr(Path, "mkdir", the_other_process_first)
+    assert folder_path(str(out)) == out
+    monkeypatch.setattr(Path, "mkdir", real_mkdir)
+    assert (out / "rows.part").is_file()  # not removed: neither folder was this call's to remove
+
+    other = tmp_path / "other" / "run"  # made by this call, written into by the other before removal
+    real_rmdir = Path.rmdir
+
+    def written_into_first(self):
+        if self == other:
+            (self / "rows.part").write_text("")
+        real_rmdir(self)
+
+    monkeypatch.setattr(Path, "rmdir", written_into_first)
+    assert folder_path(str(other)) == other  # the trial folder is left to the process writing it
+    assert (other / "rows.part").is_file()

@@ -116,7 +116,12 @@ def folder_path(text: str) -> Path:
     created = []
     try:
         for folder in reversed(missing):
-            folder.mkdir()
+            try:
+                folder.mkdir()
+            except FileExistsError:
+                if folder.is_dir():  # another process made it meanwhile (two runs started together)
+                    continue
+                raise
             created.append(folder)
     except OSError as err:
         reason = err.strerror or type(err).__name__
@@ -125,7 +130,10 @@ def folder_path(text: str) -> Path:
         ) from None
     finally:
         for folder in reversed(created):
-            folder.rmdir()
+            try:
+                folder.rmdir()
+            except OSError:  # another process wrote into it meanwhile: its folder now, left to it
+                pass
     return path
 
 

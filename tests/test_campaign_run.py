@@ -346,8 +346,13 @@ def test_the_run_timeout_is_finite_and_positive(capsys, tmp_path, value):
 
 
 def test_a_lost_scheduler_is_one_line_and_keeps_the_rows(tmp_path, cluster, processes):
-    address, scheduler, _ = cluster
+    """The workers warmed first and frozen (SIGSTOP) when two batches are stored, then the scheduler
+    killed: the campaign cannot finish in between (as the worker-killing test above)."""
+    address, scheduler, workers = cluster
     out = tmp_path / "lost"
+    with Client(address, timeout=10) as observer:
+        warm = lambda texts: __import__("ibvs_youla.campaign.run").campaign.run.run_specs(texts)  # noqa: E731
+        observer.run(warm, [spec.to_json() for spec in CampaignDefinition(**DEFINITION).specs()[:6]])
     client = subprocess.Popen(
         [sys.executable, "-c", PYTHON_CLI, *CLI_ARGS, "--out", str(out), "--scheduler", address],
         stdout=subprocess.PIPE,
@@ -355,7 +360,9 @@ def test_a_lost_scheduler_is_one_line_and_keeps_the_rows(tmp_path, cluster, proc
         text=True,
     )
     processes.append(client)
-    _wait_for(lambda: _stored(out) >= 6 or client.poll() is not None, 60, "two batches")
+    _wait_for(lambda: _stored(out) >= 6 or client.poll() is not None, 60, "two batches", poll=0.005)
+    for worker in workers:
+        worker.send_signal(signal.SIGSTOP)  # killed stopped at teardown (the processes fixture)
     scheduler.send_signal(signal.SIGKILL)
     _, stderr = client.communicate(timeout=60)
     line = _one_line(stderr)

@@ -447,7 +447,8 @@ def test_a_killed_client_resumes_with_the_same_command(tmp_path, reference, proc
     command = [sys.executable, "-c", PYTHON_CLI, *CLI_ARGS, "--out", str(out), "--workers", "2"]
     first = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     processes.append(first)
-    _wait_for(lambda: _stored(out) >= 6 or first.poll() is not None, 90, "two batches")
+    _wait_for(lambda: _stored(out) >= 6 or first.poll() is not None, 90, "two batches", poll=0.005)
+    first.send_signal(signal.SIGSTOP)  # no more rows while its workers are listed (it is killed stopped)
     children = psutil.Process(first.pid).children(recursive=True)  # the local cluster's workers
     first.send_signal(signal.SIGKILL)
     first.communicate(timeout=30)

@@ -202,17 +202,18 @@ def test_the_compiled_frame_path_takes_the_option(name):
     """
     from unittest import mock
 
-    from ibvs_youla.estimation import monocular_pose
+    import cv2
 
-    solved, real = [], monocular_pose._pnp_or_none
+    solved, real = [], cv2.solvePnP
 
-    def spy(P_ref, normalized, method, flag, K):
-        solved.append(method)
-        return real(P_ref, normalized, method, flag, K)
+    def spy(*args, **kwargs):
+        solved.append(kwargs["flags"])
+        return real(*args, **kwargs)
 
-    with mock.patch.object(monocular_pose, "_pnp_or_none", spy):
+    with mock.patch.object(cv2, "solvePnP", spy):
         compiled = run(name, "ippe", duration=3.0)
-    assert len(solved) == len(compiled.frame_t) and set(solved) == {"ippe"}  # one PnP a frame, IPPE's
+    # one PnP a frame, IPPE's
+    assert len(solved) == len(compiled.frame_t) and set(solved) == {cv2.SOLVEPNP_IPPE}
     plugged = run(name, "ippe", duration=3.0, loop="plug-in")
     assert compiled.metadata["loop"] == "compiled" and plugged.metadata["loop"] == "plug-in"
     assert compiled.metadata["spec"]["controller"]["pnp"] == "ippe"

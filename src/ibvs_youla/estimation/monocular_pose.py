@@ -40,6 +40,7 @@ import numpy as np
 from .._validation import as_array, instance, one_of
 from ..exceptions import InvalidArrayError, InvalidParameterError, PoseEstimationError
 from ..model.camera import PinholeCamera, StereoCamera, points_at_depths, triangulate_points
+from .pnp_kernels import pnp_depths
 from .stereo_pose import check_marker_geometry, estimate_pose, kabsch_centred
 
 __all__ = [
@@ -320,6 +321,25 @@ class CameraPoseEstimator:
         self._check_shape(features)
         R_C_ref, t_C = self._pnp(features, features.tobytes())
         return self._P @ R_C_ref[2] + t_C[2]  # type: ignore[no-any-return]
+
+    def write_marker_depths(self, features: np.ndarray, out: np.ndarray) -> None:
+        """:meth:`marker_depths` into ``out`` (n,), for features this estimator's shape (not checked).
+
+        The compiled frame path's call: OpenCV's PnP, then the depths from its (rvec, tvec) in one
+        compiled call (:func:`~.pnp_kernels.pnp_depths`, the arithmetic of :meth:`marker_depths` to
+        rounding). An image OpenCV finds no pose for, or raises on, takes :meth:`marker_depths`,
+        which gives its fallback (:data:`IPPE_FALLBACK`) or its error. The pose is not kept for a
+        later call with the same features.
+        """
+        import cv2
+
+        normalized = features.reshape(self._n, 2) / self.camera.focal_length
+        try:
+            ok, rvec, tvec = cv2.solvePnP(self._P, normalized, _EYE3, None, flags=self._flag)
+        except cv2.error:
+            ok = False
+        if not (ok and pnp_depths(rvec, tvec, self._P, out)):
+            out[:] = self.marker_depths(features)
 
     def _check_shape(self, features: np.ndarray) -> None:
         """InvalidArrayError unless the features have the shape of this camera's for the points."""

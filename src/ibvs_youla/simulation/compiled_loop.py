@@ -23,7 +23,8 @@ stereo camera's triangulation, or are not needed (``ibvs-desired``); a monocular
 features without measured depths takes them from the controller's own pose estimate, as its update
 does: its ``CameraPoseEstimator`` (OpenCV's PnP, SQPnP by default) is called between two compiled
 calls, the sensor and the rest of the frame, and the believed markers' depths in that pose
-(:func:`estimated_depths`, from the PnP's [R | t] directly) are written into the frame. Per frame
+(:meth:`~ibvs_youla.estimation.monocular_pose.CameraPoseEstimator.write_marker_depths`: OpenCV's
+PnP, then the depths from its (rvec, tvec) in one compiled call) are written into the frame. Per frame
 the free camera is one compiled call (two around the pose); a tick of the kinematic arm is
 Pinocchio's camera pose and J_C (the arm's kinematics) and one compiled call.
 
@@ -73,21 +74,10 @@ from .recorder import ResultRecorder
 from .results import SimulationResult
 from .sensor import MarkerSensor
 
-__all__ = ["CompiledLoop", "estimated_depths"]
+__all__ = ["CompiledLoop"]
 
 _FREE_SIGNALS = ("camera_twist", "ibvs_gain")
 _ARM_SIGNALS = ("q", "q_true", "dq", "camera_twist", "dq_ref", "ibvs_gain")
-
-
-def estimated_depths(estimator: Any, features: np.ndarray) -> np.ndarray:
-    """Z_C (n,) [m] of the believed markers in the pose the controller estimates from ``features``.
-
-    The arithmetic of a monocular law's update at the current features
-    (:class:`~ibvs_youla.controllers.image_points.CurrentPoints`): its ``CameraPoseEstimator``'s
-    :meth:`~ibvs_youla.estimation.monocular_pose.CameraPoseEstimator.marker_depths` (OpenCV's PnP,
-    the controller's markers in that camera frame). Raises its ``PoseEstimationError``.
-    """
-    return estimator.marker_depths(features.copy())  # type: ignore[no-any-return]
 
 
 class CompiledLoop:
@@ -249,7 +239,7 @@ class CompiledLoop:
         """
         m, n = self.law.shape[0], self.markers_O.shape[0]
         try:
-            frame[m + n :] = estimated_depths(self.pose_estimator, frame[:m])
+            self.pose_estimator.write_marker_depths(frame[:m], frame[m + n :])  # type: ignore[union-attr]
         except PoseEstimationError as err:
             return f"t = {t:.6g} s: {type(self.controller).__name__}'s estimate failed: {err}"
         return None

@@ -43,12 +43,20 @@ ones on the arm: a pseudo-inverse of J_C at every joint tick) and for the nine-m
 Both are projections from ``--cases`` and ``--arm-cases`` cases, not 7,000 runs; they assume the
 measured mix of outcomes (a run that stops early is shorter).
 
+The floor OpenCV's PnP sets (``pnp_floor``): each of the seven methods' runs of the first free
+case is made once with a spy on ``cv2.solvePnP`` that keeps every call's arguments; those calls are
+then replayed, timed (the median of ``PNP_REPLAYS`` replays of the run's calls), and their time per
+case x 1,000 cases / k workers is the part of the 1,000 x 7 campaign the PnP alone takes, whatever
+the rest of the loop costs. Its rows are today's only if the PnP is OpenCV's SQPnP (the
+methods' default), so this floor bounds how fast the campaign can be while its rows stay equal.
+
 Run: ``python benchmarks/bench_campaign.py --json campaign.json``.
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import logging
 import os
 import sys
@@ -81,6 +89,7 @@ TARGETS = {
     "arm_1000x7_minutes_max": 30.0,
 }
 ROW_TOLERANCE = 1e-9  # relative or absolute, rows against the plug-in loop's
+PNP_REPLAYS = 5  # timed replays of one case's PnP calls (pnp_floor)
 
 
 def campaigns(args: argparse.Namespace) -> dict[str, dict[str, Any]]:
@@ -383,6 +392,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             "arm_1000x7_minutes": arm_minutes["twist"]["2"] < TARGETS["arm_1000x7_minutes_max"],
         },
     }
+    report["pnp_floor"] = pnp_floor(plan["free"]["specs"])
     if args.full_cases > 0:
         report["full"] = full_free_campaign(args)
         report["targets"]["met"]["free_1000x7_measured_minutes"] = _full_met(report["full"])
@@ -414,10 +424,55 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         f"(target < {TARGETS['arm_1000x7_minutes_max']:g}); "
         f"with the nine-method mix {arm_minutes['all']['2']:.1f} min on 2"
     )
+    floor = report["pnp_floor"]
+    print(
+        f"OpenCV's PnP alone in that campaign: {floor['free_1000x7_minutes']['2']:.2f} min on 2 workers "
+        f"({floor['calls_per_case']} calls a case, {floor['us_per_call']:.1f} us each; "
+        f"target < {TARGETS['free_1000x7_measured_minutes_max']:g} min for the whole campaign)"
+    )
     if "full" in report:
         _print_full(report["full"])
     write_json(args.json, report, headline)
     return report
+
+
+def pnp_floor(specs: list[ExperimentSpec]) -> dict[str, Any]:
+    """The minutes OpenCV's PnP alone takes in a 1,000-case free campaign of these methods."""
+    import cv2
+
+    first: dict[str, ExperimentSpec] = {}
+    for s in specs:
+        first.setdefault(s.controller, s)
+    calls: dict[str, list[tuple[tuple[Any, ...], dict[str, Any]]]] = {m: [] for m in first}
+    real = cv2.solvePnP
+
+    def spy(kept: list[tuple[tuple[Any, ...], dict[str, Any]]], *a: Any, **kw: Any) -> Any:
+        kept.append((tuple(np.array(x, copy=True) if isinstance(x, np.ndarray) else x for x in a), kw))
+        return real(*a, **kw)
+
+    for method, spec in first.items():
+        cv2.solvePnP = functools.partial(spy, calls[method])
+        try:
+            run_spec(spec)
+        finally:
+            cv2.solvePnP = real
+    replay = [call for method_calls in calls.values() for call in method_calls]
+    walls = []
+    for _ in range(PNP_REPLAYS):
+        t0 = perf_counter()
+        for a, kw in replay:
+            real(*a, **kw)
+        walls.append(perf_counter() - t0)
+    case_s = float(np.median(walls))
+    per_call = case_s / max(len(replay), 1)
+    return {
+        "calls_per_case": len(replay),
+        "calls_by_method": {m: len(c) for m, c in calls.items()},
+        "flags": sorted({int(kw.get("flags", -1)) for _, kw in replay}),
+        "us_per_call": per_call * 1e6,
+        "case_s": case_s,
+        "free_1000x7_minutes": {str(k): 1000 * case_s / k / 60.0 for k in WORKERS},
+    }
 
 
 def full_free_campaign(args: argparse.Namespace) -> dict[str, Any]:

@@ -238,6 +238,16 @@ def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
     assert len(saved["history"]) == 1 and saved["history"][0]["arm_1000x7_minutes_2_workers"] == arm["2"]
     assert saved["machine"]["cores"] >= 1 and saved["machine"]["date"]
     assert report["campaigns"]["free"]["scaling"] == saved["campaigns"]["free"]["scaling"]
+    # OpenCV's PnP alone: one SQPnP a frame (0.2 s at 25 Hz: 6 frames) for each method but ibvs-desired,
+    # whose L needs no depth; the minutes are the replayed calls' time x 1,000 cases / k workers
+    import cv2
+
+    floor = saved["pnp_floor"]
+    assert floor["calls_by_method"] == {m: 0 if m == "ibvs-desired" else 6 for m in bench.TWIST_METHODS}
+    assert floor["calls_per_case"] == 36 and floor["flags"] == [cv2.SOLVEPNP_SQPNP]
+    assert floor["us_per_call"] == pytest.approx(floor["case_s"] / 36 * 1e6)
+    for k in ("1", "2"):
+        assert floor["free_1000x7_minutes"][k] == pytest.approx(1000 * floor["case_s"] / int(k) / 60.0)
 
 
 def test_peers_benchmark_writes_our_steps_and_its_table(tmp_path):

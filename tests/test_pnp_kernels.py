@@ -1,4 +1,4 @@
-"""The compiled depths from OpenCV's PnP (rvec, tvec): Rodrigues as OpenCV evaluates it, then Z = r_3 . P + t_z.
+"""The compiled depths from OpenCV's PnP (rvec, tvec): Rodrigues as OpenCV evaluates it, then r_3 . P + t_z.
 
 ``pnp_depths`` is pinned bit for bit to ``cv2.Rodrigues``'s third row, and to numpy's
 ``P @ R[2] + t[2]`` (the reference, :meth:`CameraPoseEstimator.marker_depths`) to rounding;

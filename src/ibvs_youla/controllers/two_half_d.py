@@ -78,6 +78,7 @@ from ..model.camera import PinholeCamera
 from .base import CameraFrame, CommandType, Controller, JointReading, ServoTask
 from .image_points import pnp_spec
 from .pbvs import check_pose_task, check_sampled_gain, pose_options, theta_u
+from .two_half_d_kernels import pose_route_twist
 
 __all__ = [
     "REGISTRATIONS",
@@ -287,6 +288,9 @@ class TwoHalfD(Controller):
         self._Z_target = float(P_target[2])  # Z* [m]
         self._m_ref_target = P_target / P_target[2]  # [x*, y*, 1]
         self._F = float(task.camera.focal_length)
+        # the pose route's compiled law (two_half_d_kernels): (Z*, x*, y*, lambda, use the image point)
+        self._law = np.array([self._Z_target, *self._m_ref_target[:2], self.gain, float(index != "centroid")])
+        self._xy = np.zeros(2)
         self._options = pose_options(task, self.pnp)
         # the camera pose of each frame (estimate_camera_pose, its arguments checked once)
         self.pose_estimator = CameraPoseEstimator(task.camera, task.markers_O, **self._options)
@@ -334,10 +338,27 @@ class TwoHalfD(Controller):
                 x, y = m[i]
         else:
             T_O_C = self.pose_estimator(features, frame.depth)
-            R_target_C = (self._T_target_O @ T_O_C)[:3, :3]
-            X, Y, Z = (self._reference_O - T_O_C[:3, 3]) @ T_O_C[:3, :3]  # reference in {c}
-            rho = Z / self._Z_target
-            x, y = (X / Z, Y / Z) if self.reference_point == "centroid" else self._image_point(features)
+            if self.reference_point != "centroid":
+                self._xy[:] = self._image_point(features)
+            twist, error = np.empty(6), np.empty(6)
+            law = (self._T_target_O, self._reference_O, self._law, self._xy)
+            if pose_route_twist(T_O_C, *law, twist, error):
+                self._twist, self._error = twist, error
+            else:  # the reference point behind the camera (raises), or scipy's theta u
+                self._pose_route_reference(T_O_C, features)
+            return
+        self._twist_from(R_target_C, rho, x, y)
+
+    def _pose_route_reference(self, T_O_C: np.ndarray, features: np.ndarray) -> None:
+        """The pose route in numpy: the reference of :func:`~.two_half_d_kernels.pose_route_twist`."""
+        R_target_C = (self._T_target_O @ T_O_C)[:3, :3]
+        X, Y, Z = (self._reference_O - T_O_C[:3, 3]) @ T_O_C[:3, :3]  # reference in {c}
+        rho = Z / self._Z_target
+        x, y = (X / Z, Y / Z) if self.reference_point == "centroid" else self._image_point(features)
+        self._twist_from(R_target_C, rho, x, y)
+
+    def _twist_from(self, R_target_C: np.ndarray, rho: float, x: float, y: float) -> None:
+        """The task function and the twist from c*R_c, rho and the reference point's (x, y) (reference)."""
         if not rho > 0.0:
             raise PointBehindCameraError(
                 [self.reference_point],

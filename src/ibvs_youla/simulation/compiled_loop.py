@@ -93,12 +93,20 @@ def estimated_depths(estimator: Any, features: np.ndarray) -> np.ndarray:
 class CompiledLoop:
     """One run of classical IBVS on an ideal plant in compiled frame calls (module docstring).
 
-    Build it with :meth:`covering`, which returns None for roles it does not cover.
+    Build it with :meth:`covering`, which returns None for roles it does not cover. The loop over
+    frames and ticks is any law's; a law is its controller type, its recorded signals and three
+    steps a subclass overrides (:class:`~.compiled_pbvs_loop.CompiledPBVSLoop`):
+    :meth:`_prepare` (its packed data), :meth:`_law_inputs` (what it takes from Python between the
+    sensor and its compiled call) and :meth:`_camera_frame` / :meth:`_arm_tick` (that call).
     """
+
+    controller_type: type = ClassicalIBVS
+    free_signals: tuple[str, ...] = _FREE_SIGNALS  # the recorder's signals on the free camera
+    arm_signals: tuple[str, ...] = _ARM_SIGNALS  # ... and on the kinematic arm
 
     def __init__(
         self,
-        controller: ClassicalIBVS,
+        controller: Any,
         sensor: MarkerSensor,
         plant: Any,
         chain: list[Any],
@@ -108,11 +116,35 @@ class CompiledLoop:
         record_every: int,
         recorder: ResultRecorder,
     ) -> None:
-        task = controller.task
         self.controller, self.sensor = controller, sensor
         self.plant, self.recorder, self.n_ticks, self.dt = plant, recorder, n_ticks, dt
         self.ticks_per_frame, self.record_every = ticks_per_frame, record_every
         self.markers_O = np.ascontiguousarray(sensor.markers_O, dtype=float)
+        self.m = np.asarray(controller.task.feature_target).shape[0]  # features per frame
+        self.model_arm = chain[0].arm if chain else None
+        self.twist = np.zeros(6)  # the law's last twist [m/s, rad/s], held between frames
+        self._prepare(chain)
+
+    def _pack(self, chain: list[Any], **law: Any) -> np.ndarray:
+        """The kernels' parameters (:func:`~.frame_kernels.pack_parameters`) with the law's settings."""
+        task, sensor = self.controller.task, self.sensor
+        policy = chain[0].policy if chain else None
+        return pack_parameters(
+            camera_parameters(sensor.camera),
+            camera_parameters(task.camera),
+            dt=self.dt,
+            virtual_points=bool(task.virtual_points),
+            measure_depth=sensor.measures_depth,
+            record_every=self.record_every,
+            n_ticks=self.n_ticks,
+            joint_policy=(True, 0.0) if policy is None else (policy.kind == "damped", policy.threshold),
+            **law,
+        )
+
+    def _prepare(self, chain: list[Any]) -> None:
+        """Classical IBVS's data: its parameters, the law's table (target, L*, L*^+) and gain."""
+        controller, sensor = self.controller, self.sensor
+        task = controller.task
         gain = controller.gain
         if isinstance(gain, AdaptiveGain):
             gain_ = (gain.lambda_0, gain.lambda_inf, gain.lambda_dot_0, True)
@@ -125,29 +157,16 @@ class CompiledLoop:
         self.pose_estimator = controller.pose_estimator if estimates else None
         depth_from = DEPTH_MEASURED if sensor.measures_depth or pose else DEPTH_TRIANGULATED
         interaction = INTERACTIONS.index(controller.interaction)
-        policy = chain[0].policy if chain else None
-        self.params = pack_parameters(
-            camera_parameters(sensor.camera),
-            camera_parameters(task.camera),
-            dt=dt,
-            gain=gain_,
-            pinv_threshold=PINV_THRESHOLD,
-            interaction=interaction,
-            depth_from=depth_from,
-            virtual_points=bool(task.virtual_points),
-            measure_depth=sensor.measures_depth,
-            record_every=record_every,
-            n_ticks=n_ticks,
-            joint_policy=(True, 0.0) if policy is None else (policy.kind == "damped", policy.threshold),
+        self.params = self._pack(
+            chain, gain=gain_, pinv_threshold=PINV_THRESHOLD, interaction=interaction, depth_from=depth_from
         )
         target = np.asarray(task.feature_target, dtype=float)
-        m = target.shape[0]
-        self.law = np.zeros((m, 13))
+        self.law = np.zeros((self.m, 13))
         self.law[:, 0] = target
         if controller.desired_interaction_matrix is not None:
             self.law[:, 1:7] = controller.desired_interaction_matrix
-            self.law[:, 7:13] = controller.desired_pseudo_inverse.T  # type: ignore[union-attr]
-        self.model_arm = chain[0].arm if chain else None
+            self.law[:, 7:13] = controller.desired_pseudo_inverse.T
+        self.gain = np.zeros(1)  # the law's lambda [1/s] of the last frame (the signal ibvs_gain)
 
     @classmethod
     def covering(
@@ -163,10 +182,10 @@ class CompiledLoop:
         recorder: ResultRecorder,
     ) -> CompiledLoop | None:
         """The compiled loop of these roles, or None when one is not covered (module docstring)."""
-        if type(controller) is not ClassicalIBVS or type(sensor) is not MarkerSensor:
+        if type(controller) is not cls.controller_type or type(sensor) is not MarkerSensor:
             return None
         if type(plant) is FreeCameraPlant and not chain:
-            expected = _FREE_SIGNALS
+            expected = cls.free_signals
         elif (
             type(plant) is KinematicArmPlant
             and len(chain) == 1
@@ -174,7 +193,7 @@ class CompiledLoop:
             and chain[0].secondary_task is None  # the null-space task: the plug-in loop
             and plant.input_type is CommandType.JOINT_VELOCITY
         ):
-            expected = _ARM_SIGNALS
+            expected = cls.arm_signals
         else:
             return None
         if recorder.signal_names != expected or sensor.n_points != controller.task.n_points:
@@ -183,7 +202,7 @@ class CompiledLoop:
 
     def run(self, progress: bool = False, label: str = "simulate") -> SimulationResult | None:
         """The run's result, or None when a kernel declined (the caller runs the plug-in loop)."""
-        n, m = self.markers_O.shape[0], self.law.shape[0]
+        n, m = self.markers_O.shape[0], self.m
         n_frames = self.n_ticks // self.ticks_per_frame + 1
         n_rows = self.n_ticks // self.record_every + 2
         recorder = self.recorder
@@ -217,7 +236,7 @@ class CompiledLoop:
         return self._result(row0, row, frames[:done], t0)
 
     def _result(self, row0: int, row: int, frames: np.ndarray, t0: float) -> SimulationResult:
-        recorder, m, n = self.recorder, self.law.shape[0], self.markers_O.shape[0]
+        recorder, m, n = self.recorder, self.m, self.markers_O.shape[0]
         recorder.advance(row - row0)
         recorder.record_frames(
             frames[:, 0], frames[:, 1 : 1 + m], frames[:, 1 + m : 1 + m + n] != 0.0, frames[:, -1]
@@ -247,7 +266,7 @@ class CompiledLoop:
 
         As the plug-in loop reports a failed estimate (status ``"estimate_failed"``).
         """
-        m, n = self.law.shape[0], self.markers_O.shape[0]
+        m, n = self.m, self.markers_O.shape[0]
         try:
             frame[m + n :] = estimated_depths(self.pose_estimator, frame[:m])
         except PoseEstimationError as err:
@@ -266,6 +285,13 @@ class CompiledLoop:
                 return None
             self._stop = ("markers_lost", reason)
             return False
+        return self._law_inputs(frame, t)
+
+    def _law_inputs(self, frame: np.ndarray, t: float) -> bool | None:
+        """What the law takes from Python after the sensor: the depths of L from the pose estimate.
+
+        Tri-state as :meth:`_measured` (a failed estimate stops the run).
+        """
         if self.pose_estimator is not None:
             reason = self.frame_depths(frame, t)
             if reason is not None:
@@ -273,19 +299,46 @@ class CompiledLoop:
                 return False
         return True
 
+    def _camera_frame(
+        self, k: int, T_O_C: np.ndarray, frame: np.ndarray, table: np.ndarray, row: int, frames: np.ndarray
+    ) -> int:
+        """The compiled call of frame k on the free camera: the law, the sample, the step (the next row)."""
+        n = self.markers_O.shape[0]
+        return free_camera_step(  # type: ignore[no-any-return]
+            k, T_O_C, n, self.law, self.params, frame, self.twist, self.gain, table, row,
+            self.recorder.row_sizes, frames,
+        )  # fmt: skip
+
+    def _arm_tick(
+        self,
+        k: int,
+        is_frame: bool,
+        T_O_C: np.ndarray,
+        J_C: np.ndarray,
+        state: np.ndarray,
+        frame: np.ndarray,
+        table: np.ndarray,
+        row: int,
+        frames: np.ndarray,
+    ) -> int:
+        """The compiled call of tick k on the kinematic arm: on a frame the law, then the tick."""
+        return kinematic_tick(  # type: ignore[no-any-return]
+            k, is_frame, True, T_O_C, J_C, state, self.markers_O, self.law, self.params, frame, self.twist,
+            self.gain, table, row, self.recorder.row_sizes, frames, k // self.ticks_per_frame,
+        )  # fmt: skip
+
     def _free_camera(self, table: np.ndarray, row: int, frames: np.ndarray, bar: Any) -> bool:
         """The run on the free camera; True when a kernel declined."""
-        n, m = self.markers_O.shape[0], self.law.shape[0]
+        n, m = self.markers_O.shape[0], self.m
         T = self.plant.camera_pose()
-        law, params = self.law, self.params
-        frame, twist, gain, sizes = np.zeros(m + 2 * n), np.zeros(6), np.zeros(1), self.recorder.row_sizes
+        frame = np.zeros(m + 2 * n)
         clock = time.perf_counter
         for k in range(self.n_ticks + 1):
             tic = clock()
             measured = self._measured(T, frame, k)
             if not measured:
                 return measured is None
-            row = free_camera_step(k, T, n, law, params, frame, twist, gain, table, row, sizes, frames)
+            row = self._camera_frame(k, T, frame, table, row, frames)
             if row < 0:
                 return True
             frames[k, -1] = clock() - tic
@@ -296,13 +349,12 @@ class CompiledLoop:
 
     def _kinematic(self, table: np.ndarray, row: int, frames: np.ndarray, bar: Any) -> bool:
         """The run on the kinematic arm; True when a kernel declined."""
-        n, m = self.markers_O.shape[0], self.law.shape[0]
+        n, m = self.markers_O.shape[0], self.m
         plant, arm = self.plant, self.model_arm
         reading = plant.reading()
         q_encoder, q_true, dq = plant.signal_values(reading)
         state = np.array([q_true, q_encoder, dq, plant.joint_offset], dtype=float)  # (4, n_joints)
-        markers, law, params = self.markers_O, self.law, self.params
-        frame, twist, gain, sizes = np.zeros(m + 2 * n), np.zeros(6), np.zeros(1), self.recorder.row_sizes
+        frame = np.zeros(m + 2 * n)
         clock = time.perf_counter
         camera_fk, jacobian = plant.arm.camera_fk, arm.camera_jacobian_at  # type: ignore[union-attr]
         every, record_every, last = self.ticks_per_frame, self.record_every, self.n_ticks
@@ -316,10 +368,7 @@ class CompiledLoop:
                 measured = self._measured(T, frame, k)
                 if not measured:
                     return measured is None
-            row = kinematic_tick(
-                k, is_frame, True, T, jacobian(state[1]), state, markers, law, params, frame, twist, gain,
-                table, row, sizes, frames, k // every,
-            )  # fmt: skip
+            row = self._arm_tick(k, is_frame, T, jacobian(state[1]), state, frame, table, row, frames)
             if row < 0:
                 return True
             if is_frame:

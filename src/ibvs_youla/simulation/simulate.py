@@ -42,6 +42,7 @@ from ..model.eye_to_hand import mounted
 from ..scenarios import Scenario
 from .actuation import actuation_chain
 from .compiled_loop import CompiledLoop
+from .compiled_pbvs_loop import CompiledPBVSLoop
 from .controller_checks import checked_signals, checked_spec, command_type_of, controller_name, failed
 from .disturbances import Disturbances
 from .free_camera import FreeCameraPlant
@@ -57,6 +58,7 @@ from .settings import SimulationSettings
 __all__ = ["PLANTS", "SENSORS", "Beliefs", "PreparedRun", "default_camera", "prepare_run", "simulate"]
 
 LOOPS = ("auto", "plug-in")
+COMPILED_LOOPS = (CompiledLoop, CompiledPBVSLoop)  # the compiled frame paths, by the law they run
 SENSORS = ("ideal", "depth", "images")
 
 
@@ -299,7 +301,12 @@ class PreparedRun:
 
         As :func:`simulate` (its ``loop`` and ``progress``; its errors from the loop).
         """
-        compiled = CompiledLoop.covering(*self.roles, self.recorder) if loop == "auto" else None
+        compiled = None
+        if loop == "auto":
+            for kind in COMPILED_LOOPS:
+                compiled = kind.covering(*self.roles, self.recorder)
+                if compiled is not None:
+                    break
         if compiled is not None:
             self.recorder.metadata["loop"] = "compiled"
             result = compiled.run(progress, self.label)

@@ -1,4 +1,4 @@
-"""The compiled frame path: the servo loop of classical IBVS on an ideal plant, one compiled call per frame.
+"""The compiled frame path: a library law's servo loop on an ideal plant, one compiled call per frame.
 
 :func:`~ibvs_youla.simulate` builds the four roles of :mod:`.loop` for every run. When each of them
 is the library's own and one the kernels of :mod:`.frame_kernels` cover, it runs
@@ -7,6 +7,9 @@ loop="plug-in")`` keeps the plug-in loop):
 
 * the controller: a :class:`~ibvs_youla.controllers.ibvs.ClassicalIBVS` (``ibvs-current``,
   ``ibvs-desired``, ``ibvs-mean``; a constant or adaptive gain), not a subclass nor a wrapper;
+  or a :class:`~ibvs_youla.controllers.pbvs.PBVS`, whose law
+  :class:`~.compiled_pbvs_loop.CompiledPBVSLoop` runs in this loop (its pose from the controller's
+  own estimator, then one compiled call: :mod:`.compiled_pbvs_loop`);
 * the sensor: the ideal :class:`~.sensor.MarkerSensor`, with or without depth, not wrapped by a
   disturbance (noise, dropouts, latency, images);
 * the plant: the free camera (:class:`~.free_camera.FreeCameraPlant`), or the kinematic arm
@@ -27,23 +30,26 @@ calls, the sensor and the rest of the frame, and the believed markers' depths in
 the free camera is one compiled call (two around the pose); a tick of the kinematic arm is
 Pinocchio's camera pose and J_C (the arm's kinematics) and one compiled call.
 
-It gives the plug-in loop's result to rounding (``tests/test_compiled_frame_path.py``: 1e-12 on every
-method x plant x camera covered), with ``metadata["loop"] = "compiled"``, except where the depths come
-from the PnP pose: SQPnP stops its iterations at a step of ~1e-5 (``||delta||^2 <= 1e-10``), so a
-last-bit difference of the features can move its pose by up to ~1e-8 of its scale, and the run then
-equals the plug-in loop's to that tolerance (the test: 1e-7; measured 4e-9 on the twist). A batch of
-runs (:mod:`.batch_loop`) makes the same calls in the same order, so its cases equal these runs to
-the bit. Where the plug-in loop stops early, the run stops at the same tick with its status and
-reason: a marker the true camera lost (the kernel rejects a depth or a disparity, and the sensor,
-measuring the same pose, gives the error the plug-in loop reports), a pose the controller cannot
-estimate. Where it would raise (a diverging plant, an invalid command) or where the sensor measures
-after all a frame the kernel rejected (a depth at the edge of rounding), a kernel declines and the
-run is made again by the plug-in loop from the start, which gives its status or error.
+It gives the plug-in loop's result to rounding (``tests/test_compiled_frame_path.py`` and, for
+PBVS, ``tests/test_compiled_pbvs.py``: 1e-12 on every method x plant x camera covered), with
+``metadata["loop"] = "compiled"``, except where SQPnP is in the loop (the depths from the PnP pose,
+or PBVS's monocular pose): SQPnP stops its iterations at a step of ~1e-5 (``||delta||^2 <=
+1e-10``), so a last-bit difference of the features can move its pose by up to ~1e-8 of its scale,
+and the run then equals the plug-in loop's to that tolerance (the test: 1e-7; measured 4e-9 on the
+twist). A batch of classical IBVS runs (:mod:`.batch_loop`) makes the same calls in the same order,
+so its cases equal these runs to the bit. Where the plug-in loop stops early, the run stops at the
+same tick with its status and reason: a marker the true camera lost (the kernel rejects a depth or
+a disparity, and the sensor, measuring the same pose, gives the error the plug-in loop reports), a
+pose the controller cannot estimate. Where it would raise (a diverging plant, an invalid command)
+or where the sensor measures after all a frame the kernel rejected (a depth at the edge of
+rounding), a kernel declines and the run is made again by the plug-in loop from the start, which
+gives its status or error.
 
 What differs: ``metadata["phase_seconds"]`` has the whole loop in
 ``frame`` (the phases are one call), ``update_time`` is each frame's compiled call (the sensor,
 the law, the recording and the plant step, not the law alone), and the controller object is reset
-but not stepped (its ``update`` is not called; its last twist is not kept).
+but not stepped (its ``update`` is not called; its last twist is not kept; PBVS's pose estimator is
+called, as its update would).
 """
 
 from __future__ import annotations

@@ -100,10 +100,11 @@ class CompiledLoop:
     """One run of classical IBVS on an ideal plant in compiled frame calls (module docstring).
 
     Build it with :meth:`covering`, which returns None for roles it does not cover. The loop over
-    frames and ticks is any law's; a law is its controller type, its recorded signals and three
-    steps a subclass overrides (:class:`~.compiled_pbvs_loop.CompiledPBVSLoop`):
-    :meth:`_prepare` (its packed data), :meth:`_law_inputs` (what it takes from Python between the
-    sensor and its compiled call) and :meth:`_camera_frame` / :meth:`_arm_tick` (that call).
+    frames and ticks is any law's; a law is its controller type, its recorded signals and the
+    methods a subclass overrides (:class:`~.compiled_pbvs_loop.CompiledPBVSLoop`):
+    :meth:`prepare_law` (its packed data), :meth:`law_inputs` (what it takes from Python between
+    the sensor and its compiled call) and that call, :meth:`camera_frame` (the free camera) and
+    :meth:`arm_tick` (the kinematic arm). A law that stops the run sets :attr:`stop_status`.
     """
 
     controller_type: type = ClassicalIBVS
@@ -129,9 +130,9 @@ class CompiledLoop:
         self.m = np.asarray(controller.task.feature_target).shape[0]  # features per frame
         self.model_arm = chain[0].arm if chain else None
         self.twist = np.zeros(6)  # the law's last twist [m/s, rad/s], held between frames
-        self._prepare(chain)
+        self.prepare_law(chain)
 
-    def _pack(self, chain: list[Any], **law: Any) -> np.ndarray:
+    def packed_parameters(self, chain: list[Any], **law: Any) -> np.ndarray:
         """The kernels' parameters (:func:`~.frame_kernels.pack_parameters`) with the law's settings."""
         task, sensor = self.controller.task, self.sensor
         policy = chain[0].policy if chain else None
@@ -147,7 +148,7 @@ class CompiledLoop:
             **law,
         )
 
-    def _prepare(self, chain: list[Any]) -> None:
+    def prepare_law(self, chain: list[Any]) -> None:
         """Classical IBVS's data: its parameters, the law's table (target, L*, L*^+) and gain."""
         controller, sensor = self.controller, self.sensor
         task = controller.task
@@ -163,7 +164,7 @@ class CompiledLoop:
         self.pose_estimator = controller.pose_estimator if estimates else None
         depth_from = DEPTH_MEASURED if sensor.measures_depth or pose else DEPTH_TRIANGULATED
         interaction = INTERACTIONS.index(controller.interaction)
-        self.params = self._pack(
+        self.params = self.packed_parameters(
             chain, gain=gain_, pinv_threshold=PINV_THRESHOLD, interaction=interaction, depth_from=depth_from
         )
         target = np.asarray(task.feature_target, dtype=float)
@@ -221,7 +222,7 @@ class CompiledLoop:
             bar = tqdm(total=self.n_ticks, unit="tick", desc=label, leave=False)
         t0 = time.perf_counter()
         self._progress = (row0, 0)  # (next table row, frames logged) so far
-        self._stop = ("complete", "")  # the status and reason of a run that stops early
+        self.stop_status = ("complete", "")  # the status and reason of a run that stops early
         try:
             with np.errstate(all="ignore"):
                 if type(self.plant) is FreeCameraPlant:
@@ -229,7 +230,7 @@ class CompiledLoop:
                 else:
                     declined = self._kinematic(table, row0, frames, bar)
         except KeyboardInterrupt as err:  # Ctrl-C: keep what was recorded, as the plug-in loop does
-            self._stop = ("interrupted", "interrupted")
+            self.stop_status = ("interrupted", "interrupted")
             row, done = self._progress
             err.partial = self._result(row0, row, frames[:done], t0)  # type: ignore[attr-defined]
             raise
@@ -248,7 +249,7 @@ class CompiledLoop:
             frames[:, 0], frames[:, 1 : 1 + m], frames[:, 1 + m : 1 + m + n] != 0.0, frames[:, -1]
         )
         seconds = time.perf_counter() - t0
-        status, reason = self._stop
+        status, reason = self.stop_status
         extra: dict[str, Any] = {"phase_seconds": {"frame": seconds, "control": 0.0, "plant": 0.0}}
         if status != "complete":
             extra["error"] = reason
@@ -282,18 +283,18 @@ class CompiledLoop:
     def _measured(self, T_O_C: np.ndarray, frame: np.ndarray, k: int) -> bool | None:
         """Frame k into ``frame`` (features, visibility, the depths of L).
 
-        True; False when the run stops (``self._stop`` says why); None when the plug-in loop decides.
+        True; False when the run stops (:attr:`stop_status` says why); None when the plug-in loop decides.
         """
         t = k * self.dt
         if not measure(T_O_C, self.markers_O, self.params, frame):
             reason = self.lost_marker(T_O_C, t)
             if reason is None:
                 return None
-            self._stop = ("markers_lost", reason)
+            self.stop_status = ("markers_lost", reason)
             return False
-        return self._law_inputs(frame, t)
+        return self.law_inputs(frame, t)
 
-    def _law_inputs(self, frame: np.ndarray, t: float) -> bool | None:
+    def law_inputs(self, frame: np.ndarray, t: float) -> bool | None:
         """What the law takes from Python after the sensor: the depths of L from the pose estimate.
 
         Tri-state as :meth:`_measured` (a failed estimate stops the run).
@@ -301,11 +302,11 @@ class CompiledLoop:
         if self.pose_estimator is not None:
             reason = self.frame_depths(frame, t)
             if reason is not None:
-                self._stop = ("estimate_failed", reason)
+                self.stop_status = ("estimate_failed", reason)
                 return False
         return True
 
-    def _camera_frame(
+    def camera_frame(
         self, k: int, T_O_C: np.ndarray, frame: np.ndarray, table: np.ndarray, row: int, frames: np.ndarray
     ) -> int:
         """The compiled call of frame k on the free camera: the law, the sample, the step (the next row)."""
@@ -315,7 +316,7 @@ class CompiledLoop:
             self.recorder.row_sizes, frames,
         )  # fmt: skip
 
-    def _arm_tick(
+    def arm_tick(
         self,
         k: int,
         is_frame: bool,
@@ -344,7 +345,7 @@ class CompiledLoop:
             measured = self._measured(T, frame, k)
             if not measured:
                 return measured is None
-            row = self._camera_frame(k, T, frame, table, row, frames)
+            row = self.camera_frame(k, T, frame, table, row, frames)
             if row < 0:
                 return True
             frames[k, -1] = clock() - tic
@@ -374,7 +375,7 @@ class CompiledLoop:
                 measured = self._measured(T, frame, k)
                 if not measured:
                     return measured is None
-            row = self._arm_tick(k, is_frame, T, jacobian(state[1]), state, frame, table, row, frames)
+            row = self.arm_tick(k, is_frame, T, jacobian(state[1]), state, frame, table, row, frames)
             if row < 0:
                 return True
             if is_frame:

@@ -53,10 +53,10 @@ class CompiledPBVSLoop(CompiledLoop):
     free_signals = ("camera_twist", "servo_error")
     arm_signals = ("q", "q_true", "dq", "camera_twist", "dq_ref", "servo_error")
 
-    def _prepare(self, chain: list[Any]) -> None:
+    def prepare_law(self, chain: list[Any]) -> None:
         """PBVS's data: the parameters (no gain schedule, no interaction), c*T_O, lambda, e."""
         controller = self.controller
-        self.params = self._pack(
+        self.params = self.packed_parameters(
             chain, gain=(0.0, 0.0, 0.0, False), pinv_threshold=0.0, interaction=0, depth_from=DEPTH_MEASURED
         )
         self.T_target_O = inverse_pose(np.asarray(controller.task.T_O_C_target, dtype=float))  # c*T_O
@@ -65,14 +65,14 @@ class CompiledPBVSLoop(CompiledLoop):
         self.T_O_C_estimate = np.eye(4)  # the controller's estimate of the frame's pose
         self.error = np.zeros(6)  # e = (c*t_c [m], theta u [rad]): the signal servo_error
 
-    def _law_inputs(self, frame: np.ndarray, t: float) -> bool | None:
+    def law_inputs(self, frame: np.ndarray, t: float) -> bool | None:
         """The controller's pose estimate of the frame; False: it failed (the run stops), None: decline."""
         m, n = self.m, self.markers_O.shape[0]
         depth = frame[m + n :].copy() if self.sensor.measures_depth else None
         try:
             T_O_C = self.pose_estimator(frame[:m].copy(), depth)
         except ESTIMATE_ERRORS as err:  # as the plug-in loop reports the failed update
-            self._stop = (
+            self.stop_status = (
                 "estimate_failed",
                 f"t = {t:.6g} s: {type(self.controller).__name__}'s estimate failed: {err}",
             )
@@ -82,7 +82,7 @@ class CompiledPBVSLoop(CompiledLoop):
         self.T_O_C_estimate = np.ascontiguousarray(T_O_C, dtype=float)
         return True
 
-    def _camera_frame(
+    def camera_frame(
         self, k: int, T_O_C: np.ndarray, frame: np.ndarray, table: np.ndarray, row: int, frames: np.ndarray
     ) -> int:
         """The compiled call of frame k on the free camera: the law, the sample, the step (the next row)."""
@@ -91,7 +91,7 @@ class CompiledPBVSLoop(CompiledLoop):
             self.params, frame, self.twist, self.error, table, row, self.recorder.row_sizes, frames,
         )  # fmt: skip
 
-    def _arm_tick(
+    def arm_tick(
         self,
         k: int,
         is_frame: bool,

@@ -4,9 +4,10 @@
 disturbances) in one ``simulate_batch`` call and the others alone; its rows are compared with
 ``run_spec``'s, every column but the measured times, on seeded free-planar cases (monocular
 normalized camera, the depths from SQPnP) and arm-physical cases on the kinematic arm (stereo).
-They are equal to the bit. Against the plug-in loop (what ``run_spec`` gave before classical IBVS had
-a compiled path), every number to 1e-9, relative or absolute (SQPnP's stopping tolerance is the
-difference, measured 6e-10 relative on ``final_position_mm``).
+They are equal to the bit. Against the plug-in loop (what ``run_spec`` gave before classical IBVS and
+PBVS had compiled paths; PBVS's rows, run alone, included), every number to 1e-9, relative or
+absolute (SQPnP's stopping tolerance is the difference, measured 6e-10 relative on
+``final_position_mm``).
 """
 
 from __future__ import annotations
@@ -61,10 +62,9 @@ def test_batched_rows_are_the_rows_of_runs_alone_and_of_the_plug_in_loop(free_sp
     assert [r["key"] for r in batched] == [s.key for s in free_specs]  # in order, keys unchanged
     for spec, row in zip(free_specs, batched, strict=True):
         same_row(row, run_spec(spec))
-        if spec.controller != "pbvs":  # the plug-in loop's row, before the compiled path
-            result = simulate(**spec.build(), loop="plug-in")
-            assert result.metadata["loop"] == "plug-in"
-            same_row(row, row_from_result(spec, result), tolerance=1e-9)
+        result = simulate(**spec.build(), loop="plug-in")  # the row before the compiled paths
+        assert result.metadata["loop"] == "plug-in"
+        same_row(row, row_from_result(spec, result), tolerance=1e-9)
 
 
 def test_the_kinematic_arm_with_the_stereo_camera():

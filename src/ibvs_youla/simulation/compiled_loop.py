@@ -1,4 +1,4 @@
-"""The compiled frame path: the servo loop of classical IBVS on an ideal plant, one compiled call per frame.
+"""The compiled frame path: a library law's servo loop on an ideal plant, one compiled call per frame.
 
 :func:`~ibvs_youla.simulate` builds the four roles of :mod:`.loop` for every run. When each of them
 is the library's own and one the kernels of :mod:`.frame_kernels` cover, it runs
@@ -7,6 +7,9 @@ loop="plug-in")`` keeps the plug-in loop):
 
 * the controller: a :class:`~ibvs_youla.controllers.ibvs.ClassicalIBVS` (``ibvs-current``,
   ``ibvs-desired``, ``ibvs-mean``; a constant or adaptive gain), not a subclass nor a wrapper;
+  or a :class:`~ibvs_youla.controllers.pbvs.PBVS`, whose law
+  :class:`~.compiled_pbvs_loop.CompiledPBVSLoop` runs in this loop (its pose from the controller's
+  own estimator, then one compiled call: :mod:`.compiled_pbvs_loop`);
 * the sensor: the ideal :class:`~.sensor.MarkerSensor`, with or without depth, not wrapped by a
   disturbance (noise, dropouts, latency, images);
 * the plant: the free camera (:class:`~.free_camera.FreeCameraPlant`), or the kinematic arm
@@ -28,23 +31,26 @@ PnP, then the depths from its (rvec, tvec) in one compiled call) are written int
 the free camera is one compiled call (two around the pose); a tick of the kinematic arm is
 Pinocchio's camera pose and J_C (the arm's kinematics) and one compiled call.
 
-It gives the plug-in loop's result to rounding (``tests/test_compiled_frame_path.py``: 1e-12 on every
-method x plant x camera covered), with ``metadata["loop"] = "compiled"``, except where the depths come
-from the PnP pose: SQPnP stops its iterations at a step of ~1e-5 (``||delta||^2 <= 1e-10``), so a
-last-bit difference of the features can move its pose by up to ~1e-8 of its scale, and the run then
-equals the plug-in loop's to that tolerance (the test: 1e-7; measured 4e-9 on the twist). A batch of
-runs (:mod:`.batch_loop`) makes the same calls in the same order, so its cases equal these runs to
-the bit. Where the plug-in loop stops early, the run stops at the same tick with its status and
-reason: a marker the true camera lost (the kernel rejects a depth or a disparity, and the sensor,
-measuring the same pose, gives the error the plug-in loop reports), a pose the controller cannot
-estimate. Where it would raise (a diverging plant, an invalid command) or where the sensor measures
-after all a frame the kernel rejected (a depth at the edge of rounding), a kernel declines and the
-run is made again by the plug-in loop from the start, which gives its status or error.
+It gives the plug-in loop's result to rounding (``tests/test_compiled_frame_path.py`` and, for
+PBVS, ``tests/test_compiled_pbvs.py``: 1e-12 on every method x plant x camera covered), with
+``metadata["loop"] = "compiled"``, except where SQPnP is in the loop (the depths from the PnP pose,
+or PBVS's monocular pose): SQPnP stops its iterations at a step of ~1e-5 (``||delta||^2 <=
+1e-10``), so a last-bit difference of the features can move its pose by up to ~1e-8 of its scale,
+and the run then equals the plug-in loop's to that tolerance (the test: 1e-7; measured 4e-9 on the
+twist). A batch of classical IBVS runs (:mod:`.batch_loop`) makes the same calls in the same order,
+so its cases equal these runs to the bit. Where the plug-in loop stops early, the run stops at the
+same tick with its status and reason: a marker the true camera lost (the kernel rejects a depth or
+a disparity, and the sensor, measuring the same pose, gives the error the plug-in loop reports), a
+pose the controller cannot estimate. Where it would raise (a diverging plant, an invalid command)
+or where the sensor measures after all a frame the kernel rejected (a depth at the edge of
+rounding), a kernel declines and the run is made again by the plug-in loop from the start, which
+gives its status or error.
 
 What differs: ``metadata["phase_seconds"]`` has the whole loop in
 ``frame`` (the phases are one call), ``update_time`` is each frame's compiled call (the sensor,
 the law, the recording and the plant step, not the law alone), and the controller object is reset
-but not stepped (its ``update`` is not called; its last twist is not kept).
+but not stepped (its ``update`` is not called; its last twist is not kept; PBVS's pose estimator is
+called, as its update would).
 """
 
 from __future__ import annotations
@@ -83,12 +89,21 @@ _ARM_SIGNALS = ("q", "q_true", "dq", "camera_twist", "dq_ref", "ibvs_gain")
 class CompiledLoop:
     """One run of classical IBVS on an ideal plant in compiled frame calls (module docstring).
 
-    Build it with :meth:`covering`, which returns None for roles it does not cover.
+    Build it with :meth:`covering`, which returns None for roles it does not cover. The loop over
+    frames and ticks is any law's; a law is its controller type, its recorded signals and the
+    methods a subclass overrides (:class:`~.compiled_pbvs_loop.CompiledPBVSLoop`):
+    :meth:`prepare_law` (its packed data), :meth:`law_inputs` (what it takes from Python between
+    the sensor and its compiled call) and that call, :meth:`camera_frame` (the free camera) and
+    :meth:`arm_tick` (the kinematic arm). A law that stops the run sets :attr:`stop_status`.
     """
+
+    controller_type: type = ClassicalIBVS
+    free_signals: tuple[str, ...] = _FREE_SIGNALS  # the recorder's signals on the free camera
+    arm_signals: tuple[str, ...] = _ARM_SIGNALS  # ... and on the kinematic arm
 
     def __init__(
         self,
-        controller: ClassicalIBVS,
+        controller: Any,
         sensor: MarkerSensor,
         plant: Any,
         chain: list[Any],
@@ -98,11 +113,35 @@ class CompiledLoop:
         record_every: int,
         recorder: ResultRecorder,
     ) -> None:
-        task = controller.task
         self.controller, self.sensor = controller, sensor
         self.plant, self.recorder, self.n_ticks, self.dt = plant, recorder, n_ticks, dt
         self.ticks_per_frame, self.record_every = ticks_per_frame, record_every
         self.markers_O = np.ascontiguousarray(sensor.markers_O, dtype=float)
+        self.m = np.asarray(controller.task.feature_target).shape[0]  # features per frame
+        self.model_arm = chain[0].arm if chain else None
+        self.twist = np.zeros(6)  # the law's last twist [m/s, rad/s], held between frames
+        self.prepare_law(chain)
+
+    def packed_parameters(self, chain: list[Any], **law: Any) -> np.ndarray:
+        """The kernels' parameters (:func:`~.frame_kernels.pack_parameters`) with the law's settings."""
+        task, sensor = self.controller.task, self.sensor
+        policy = chain[0].policy if chain else None
+        return pack_parameters(
+            camera_parameters(sensor.camera),
+            camera_parameters(task.camera),
+            dt=self.dt,
+            virtual_points=bool(task.virtual_points),
+            measure_depth=sensor.measures_depth,
+            record_every=self.record_every,
+            n_ticks=self.n_ticks,
+            joint_policy=(True, 0.0) if policy is None else (policy.kind == "damped", policy.threshold),
+            **law,
+        )
+
+    def prepare_law(self, chain: list[Any]) -> None:
+        """Classical IBVS's data: its parameters, the law's table (target, L*, L*^+) and gain."""
+        controller, sensor = self.controller, self.sensor
+        task = controller.task
         gain = controller.gain
         if isinstance(gain, AdaptiveGain):
             gain_ = (gain.lambda_0, gain.lambda_inf, gain.lambda_dot_0, True)
@@ -115,29 +154,16 @@ class CompiledLoop:
         self.pose_estimator = controller.pose_estimator if estimates else None
         depth_from = DEPTH_MEASURED if sensor.measures_depth or pose else DEPTH_TRIANGULATED
         interaction = INTERACTIONS.index(controller.interaction)
-        policy = chain[0].policy if chain else None
-        self.params = pack_parameters(
-            camera_parameters(sensor.camera),
-            camera_parameters(task.camera),
-            dt=dt,
-            gain=gain_,
-            pinv_threshold=PINV_THRESHOLD,
-            interaction=interaction,
-            depth_from=depth_from,
-            virtual_points=bool(task.virtual_points),
-            measure_depth=sensor.measures_depth,
-            record_every=record_every,
-            n_ticks=n_ticks,
-            joint_policy=(True, 0.0) if policy is None else (policy.kind == "damped", policy.threshold),
+        self.params = self.packed_parameters(
+            chain, gain=gain_, pinv_threshold=PINV_THRESHOLD, interaction=interaction, depth_from=depth_from
         )
         target = np.asarray(task.feature_target, dtype=float)
-        m = target.shape[0]
-        self.law = np.zeros((m, 13))
+        self.law = np.zeros((self.m, 13))
         self.law[:, 0] = target
         if controller.desired_interaction_matrix is not None:
             self.law[:, 1:7] = controller.desired_interaction_matrix
-            self.law[:, 7:13] = controller.desired_pseudo_inverse.T  # type: ignore[union-attr]
-        self.model_arm = chain[0].arm if chain else None
+            self.law[:, 7:13] = controller.desired_pseudo_inverse.T
+        self.gain = np.zeros(1)  # the law's lambda [1/s] of the last frame (the signal ibvs_gain)
 
     @classmethod
     def covering(
@@ -153,10 +179,10 @@ class CompiledLoop:
         recorder: ResultRecorder,
     ) -> CompiledLoop | None:
         """The compiled loop of these roles, or None when one is not covered (module docstring)."""
-        if type(controller) is not ClassicalIBVS or type(sensor) is not MarkerSensor:
+        if type(controller) is not cls.controller_type or type(sensor) is not MarkerSensor:
             return None
         if type(plant) is FreeCameraPlant and not chain:
-            expected = _FREE_SIGNALS
+            expected = cls.free_signals
         elif (
             type(plant) is KinematicArmPlant
             and len(chain) == 1
@@ -164,7 +190,7 @@ class CompiledLoop:
             and chain[0].secondary_task is None  # the null-space task: the plug-in loop
             and plant.input_type is CommandType.JOINT_VELOCITY
         ):
-            expected = _ARM_SIGNALS
+            expected = cls.arm_signals
         else:
             return None
         if recorder.signal_names != expected or sensor.n_points != controller.task.n_points:
@@ -173,7 +199,7 @@ class CompiledLoop:
 
     def run(self, progress: bool = False, label: str = "simulate") -> SimulationResult | None:
         """The run's result, or None when a kernel declined (the caller runs the plug-in loop)."""
-        n, m = self.markers_O.shape[0], self.law.shape[0]
+        n, m = self.markers_O.shape[0], self.m
         n_frames = self.n_ticks // self.ticks_per_frame + 1
         n_rows = self.n_ticks // self.record_every + 2
         recorder = self.recorder
@@ -186,7 +212,7 @@ class CompiledLoop:
             bar = tqdm(total=self.n_ticks, unit="tick", desc=label, leave=False)
         t0 = time.perf_counter()
         self._progress = (row0, 0)  # (next table row, frames logged) so far
-        self._stop = ("complete", "")  # the status and reason of a run that stops early
+        self.stop_status = ("complete", "")  # the status and reason of a run that stops early
         try:
             with np.errstate(all="ignore"):
                 if type(self.plant) is FreeCameraPlant:
@@ -194,7 +220,7 @@ class CompiledLoop:
                 else:
                     declined = self._kinematic(table, row0, frames, bar)
         except KeyboardInterrupt as err:  # Ctrl-C: keep what was recorded, as the plug-in loop does
-            self._stop = ("interrupted", "interrupted")
+            self.stop_status = ("interrupted", "interrupted")
             row, done = self._progress
             err.partial = self._result(row0, row, frames[:done], t0)  # type: ignore[attr-defined]
             raise
@@ -207,13 +233,13 @@ class CompiledLoop:
         return self._result(row0, row, frames[:done], t0)
 
     def _result(self, row0: int, row: int, frames: np.ndarray, t0: float) -> SimulationResult:
-        recorder, m, n = self.recorder, self.law.shape[0], self.markers_O.shape[0]
+        recorder, m, n = self.recorder, self.m, self.markers_O.shape[0]
         recorder.advance(row - row0)
         recorder.record_frames(
             frames[:, 0], frames[:, 1 : 1 + m], frames[:, 1 + m : 1 + m + n] != 0.0, frames[:, -1]
         )
         seconds = time.perf_counter() - t0
-        status, reason = self._stop
+        status, reason = self.stop_status
         extra: dict[str, Any] = {"phase_seconds": {"frame": seconds, "control": 0.0, "plant": 0.0}}
         if status != "complete":
             extra["error"] = reason
@@ -237,7 +263,7 @@ class CompiledLoop:
 
         As the plug-in loop reports a failed estimate (status ``"estimate_failed"``).
         """
-        m, n = self.law.shape[0], self.markers_O.shape[0]
+        m, n = self.m, self.markers_O.shape[0]
         try:
             self.pose_estimator.write_marker_depths(frame[:m], frame[m + n :])  # type: ignore[union-attr]
         except PoseEstimationError as err:
@@ -247,35 +273,69 @@ class CompiledLoop:
     def _measured(self, T_O_C: np.ndarray, frame: np.ndarray, k: int) -> bool | None:
         """Frame k into ``frame`` (features, visibility, the depths of L).
 
-        True; False when the run stops (``self._stop`` says why); None when the plug-in loop decides.
+        True; False when the run stops (:attr:`stop_status` says why); None when the plug-in loop decides.
         """
         t = k * self.dt
         if not measure(T_O_C, self.markers_O, self.params, frame):
             reason = self.lost_marker(T_O_C, t)
             if reason is None:
                 return None
-            self._stop = ("markers_lost", reason)
+            self.stop_status = ("markers_lost", reason)
             return False
+        return self.law_inputs(frame, t)
+
+    def law_inputs(self, frame: np.ndarray, t: float) -> bool | None:
+        """What the law takes from Python after the sensor: the depths of L from the pose estimate.
+
+        Tri-state as :meth:`_measured` (a failed estimate stops the run).
+        """
         if self.pose_estimator is not None:
             reason = self.frame_depths(frame, t)
             if reason is not None:
-                self._stop = ("estimate_failed", reason)
+                self.stop_status = ("estimate_failed", reason)
                 return False
         return True
 
+    def camera_frame(
+        self, k: int, T_O_C: np.ndarray, frame: np.ndarray, table: np.ndarray, row: int, frames: np.ndarray
+    ) -> int:
+        """The compiled call of frame k on the free camera: the law, the sample, the step (the next row)."""
+        n = self.markers_O.shape[0]
+        return free_camera_step(  # type: ignore[no-any-return]
+            k, T_O_C, n, self.law, self.params, frame, self.twist, self.gain, table, row,
+            self.recorder.row_sizes, frames,
+        )  # fmt: skip
+
+    def arm_tick(
+        self,
+        k: int,
+        is_frame: bool,
+        T_O_C: np.ndarray,
+        J_C: np.ndarray,
+        state: np.ndarray,
+        frame: np.ndarray,
+        table: np.ndarray,
+        row: int,
+        frames: np.ndarray,
+    ) -> int:
+        """The compiled call of tick k on the kinematic arm: on a frame the law, then the tick."""
+        return kinematic_tick(  # type: ignore[no-any-return]
+            k, is_frame, True, T_O_C, J_C, state, self.markers_O, self.law, self.params, frame, self.twist,
+            self.gain, table, row, self.recorder.row_sizes, frames, k // self.ticks_per_frame,
+        )  # fmt: skip
+
     def _free_camera(self, table: np.ndarray, row: int, frames: np.ndarray, bar: Any) -> bool:
         """The run on the free camera; True when a kernel declined."""
-        n, m = self.markers_O.shape[0], self.law.shape[0]
+        n, m = self.markers_O.shape[0], self.m
         T = self.plant.camera_pose()
-        law, params = self.law, self.params
-        frame, twist, gain, sizes = np.zeros(m + 2 * n), np.zeros(6), np.zeros(1), self.recorder.row_sizes
+        frame = np.zeros(m + 2 * n)
         clock = time.perf_counter
         for k in range(self.n_ticks + 1):
             tic = clock()
             measured = self._measured(T, frame, k)
             if not measured:
                 return measured is None
-            row = free_camera_step(k, T, n, law, params, frame, twist, gain, table, row, sizes, frames)
+            row = self.camera_frame(k, T, frame, table, row, frames)
             if row < 0:
                 return True
             frames[k, -1] = clock() - tic
@@ -286,13 +346,12 @@ class CompiledLoop:
 
     def _kinematic(self, table: np.ndarray, row: int, frames: np.ndarray, bar: Any) -> bool:
         """The run on the kinematic arm; True when a kernel declined."""
-        n, m = self.markers_O.shape[0], self.law.shape[0]
+        n, m = self.markers_O.shape[0], self.m
         plant, arm = self.plant, self.model_arm
         reading = plant.reading()
         q_encoder, q_true, dq = plant.signal_values(reading)
         state = np.array([q_true, q_encoder, dq, plant.joint_offset], dtype=float)  # (4, n_joints)
-        markers, law, params = self.markers_O, self.law, self.params
-        frame, twist, gain, sizes = np.zeros(m + 2 * n), np.zeros(6), np.zeros(1), self.recorder.row_sizes
+        frame = np.zeros(m + 2 * n)
         clock = time.perf_counter
         camera_fk, jacobian = plant.arm.camera_fk, arm.camera_jacobian_at  # type: ignore[union-attr]
         every, record_every, last = self.ticks_per_frame, self.record_every, self.n_ticks
@@ -306,10 +365,7 @@ class CompiledLoop:
                 measured = self._measured(T, frame, k)
                 if not measured:
                     return measured is None
-            row = kinematic_tick(
-                k, is_frame, True, T, jacobian(state[1]), state, markers, law, params, frame, twist, gain,
-                table, row, sizes, frames, k // every,
-            )  # fmt: skip
+            row = self.arm_tick(k, is_frame, T, jacobian(state[1]), state, frame, table, row, frames)
             if row < 0:
                 return True
             if is_frame:

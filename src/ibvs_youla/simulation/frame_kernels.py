@@ -5,7 +5,7 @@ controller's update and command, the actuation chain, the recorder and the plant
 as many small arrays. When every role is the library's own (:mod:`.compiled_loop` decides), these
 kernels do the same arithmetic in one compiled call (:func:`ibvs_youla._jit.jit`):
 
-* :func:`free_camera_frame`: the sensor's projection of the true markers (Eq. (9)-(11), with the
+* :func:`free_camera_step`: the sensor's projection of the true markers (Eq. (9)-(11), with the
   depths when the sensor measures them), classical IBVS v = -lambda L_e^+ e (Chaumette & Hutchinson
   2006, Eq. (5), L_e at the current, desired or mean features), the sample recorded, and the pose
   integrated, T <- T exp(dt [v]^) (the free camera);
@@ -17,10 +17,13 @@ kernels do the same arithmetic in one compiled call (:func:`ibvs_youla._jit.jit`
 
 Each is a composition of per-equation kernels (:func:`measure`, :func:`ibvs_twist`,
 :func:`exp6_integrate`) on plain arrays of one case, so that a batch of cases can run them in a
-compiled loop over cases. They do not validate and never raise: wherever the plug-in loop would stop
-or raise (a depth or disparity the projection rejects, a failed SVD, a non-finite command), they
-return :data:`DECLINED`, and the caller runs the plug-in loop instead, which reproduces its status
-or error. The results equal the plug-in loop's to rounding (``tests/test_compiled_frame_path.py``:
+compiled loop over cases. What follows the law is its own kernel, the same for any law that gives a
+camera twist: :func:`camera_step` (the frame logged, the sample, the free camera's step) and
+:func:`joint_step` (the arm's tick); PBVS's frame (:mod:`.pose_frame_kernels`) ends with them too.
+They do not validate and never raise: wherever the plug-in loop would stop or raise (a depth or
+disparity the projection rejects, a failed SVD, a non-finite command), they return
+:data:`DECLINED`, and the caller runs the plug-in loop instead, which reproduces its status or
+error. The results equal the plug-in loop's to rounding (``tests/test_compiled_frame_path.py``:
 1e-12); sums run in loops, in the reference's order where it forms a product first.
 
 Layouts: ``params`` (see :func:`pack_parameters`) holds the true and the believed camera (the
@@ -44,12 +47,17 @@ __all__ = [
     "DECLINED",
     "DEPTH_MEASURED",
     "DEPTH_TRIANGULATED",
+    "camera_step",
     "exp6_integrate",
+    "finite",
     "free_camera_step",
     "ibvs_twist",
+    "joint_step",
     "kinematic_tick",
     "measure",
     "pack_parameters",
+    "record_frame",
+    "tick_time",
 ]
 
 DECLINED = -1  # a kernel's status when the plug-in loop must run instead (module docstring)
@@ -247,7 +255,13 @@ def exp6_integrate(T: np.ndarray, twist: np.ndarray, dt: float) -> None:
 
 
 @jit
-def _finite(x: np.ndarray) -> bool:
+def tick_time(k: int, params: np.ndarray) -> float:
+    """The time of tick k, t = k dt [s] (the plug-in loop's product)."""
+    return k * params[_DT]  # type: ignore[no-any-return]
+
+
+@jit
+def finite(x: np.ndarray) -> bool:
     """Every entry of x finite."""
     for v in x:
         if not math.isfinite(v):
@@ -256,7 +270,7 @@ def _finite(x: np.ndarray) -> bool:
 
 
 @jit
-def _record_frame(frames: np.ndarray, index: int, t: float, frame: np.ndarray, n: int) -> None:
+def record_frame(frames: np.ndarray, index: int, t: float, frame: np.ndarray, n: int) -> None:
     """Row ``index`` of the frame log: [t, features (m), visible (n)] (the update time is the caller's)."""
     frames[index, 0] = t
     for r in range(frame.shape[0] - n):
@@ -285,16 +299,39 @@ def free_camera_step(
     T_O_C exp(dt [v]^) unless k is the last tick.
     """
     lam = ibvs_twist(frame, n, law, params, twist)
-    if not (math.isfinite(lam) and _finite(twist)):
+    if not (math.isfinite(lam) and finite(twist)):
         return DECLINED  # the plug-in loop raises its error (an invalid command, a diverging plant)
+    gain[0] = lam
+    return camera_step(k, T_O_C, frame, law.shape[0], n, params, twist, gain, table, row, sizes, frames)
+
+
+@jit
+def camera_step(
+    k: int,
+    T_O_C: np.ndarray,
+    frame: np.ndarray,
+    m: int,
+    n: int,
+    params: np.ndarray,
+    twist: np.ndarray,
+    signal: np.ndarray,
+    table: np.ndarray,
+    row: int,
+    sizes: np.ndarray,
+    frames: np.ndarray,
+) -> int:
+    """Frame k of the free camera after any law's ``twist``; returns the next free row, or DECLINED.
+
+    The frame logged (its m features, n markers), the sample (twist, then the law's ``signal``) into
+    ``table`` at ``row`` when kept (every record_every-th tick and the last), then T_O_C <- T_O_C
+    exp(dt [v]^) unless k is the last tick.
+    """
     dt, n_ticks = params[_DT], int(params[_N_TICKS])
     t = k * dt
-    m = law.shape[0]
-    _record_frame(frames, k, t, frame, n)
-    gain[0] = lam
+    record_frame(frames, k, t, frame, n)
     every = int(params[_RECORD_EVERY])
     if k % every == 0 or k == n_ticks:
-        if not record_row(table, row, t, T_O_C, frame[:m], frame[m : m + n] != 0.0, (twist, gain), sizes):
+        if not record_row(table, row, t, T_O_C, frame[:m], frame[m : m + n] != 0.0, (twist, signal), sizes):
             return DECLINED
         row += 1
     if k < n_ticks:
@@ -333,26 +370,52 @@ def kinematic_tick(
     when the sample is kept) and, unless k is the last tick, q_true <- q_true + dt dq_ref.
     """
     n = markers_O.shape[0]
-    dt, n_ticks = params[_DT], int(params[_N_TICKS])
-    t = k * dt
+    t = k * params[_DT]
     if is_frame:
         if not measured and not measure(T_O_C, markers_O, params, frame):
             return DECLINED
         lam = ibvs_twist(frame, n, law, params, twist)
-        if not (math.isfinite(lam) and _finite(twist)):
+        if not (math.isfinite(lam) and finite(twist)):
             return DECLINED
         gain[0] = lam
-        _record_frame(frames, frame_index, t, frame, n)
+        record_frame(frames, frame_index, t, frame, n)
+    return joint_step(k, T_O_C, J_C, state, frame, law.shape[0], n, params, twist, gain, table, row, sizes)
+
+
+@jit
+def joint_step(
+    k: int,
+    T_O_C: np.ndarray,
+    J_C: np.ndarray,
+    state: np.ndarray,
+    frame: np.ndarray,
+    m: int,
+    n: int,
+    params: np.ndarray,
+    twist: np.ndarray,
+    signal: np.ndarray,
+    table: np.ndarray,
+    row: int,
+    sizes: np.ndarray,
+) -> int:
+    """Tick k of the kinematic arm after any law's ``twist`` (held); returns the next free row, or DECLINED.
+
+    dq_ref = J_C^+ [v; w] (the actuation's damped pseudo-inverse, J_C (6, nq) at the encoders), the
+    sample (encoders, true joints, speeds, twist, dq_ref, then the law's ``signal``; the frame's m
+    features and n markers) and, unless k is the last tick, q_true <- q_true + dt dq_ref
+    (``state`` as :func:`kinematic_tick`'s).
+    """
+    dt, n_ticks = params[_DT], int(params[_N_TICKS])
+    t = k * dt
     nq = state.shape[1]
     dq_ref = np.empty(nq)
     if not pseudo_inverse_apply(J_C, twist, params[_JOINT_DAMPED] != 0.0, params[_JOINT_THRESHOLD], dq_ref):
         return DECLINED
-    if not _finite(dq_ref):
+    if not finite(dq_ref):
         return DECLINED  # the plant's divergence test: the plug-in loop raises its error
-    m = law.shape[0]
     every = int(params[_RECORD_EVERY])
     if k % every == 0 or k == n_ticks:
-        values = (state[1], state[0], state[2], twist, dq_ref, gain)
+        values = (state[1], state[0], state[2], twist, dq_ref, signal)
         if not record_row(table, row, t, T_O_C, frame[:m], frame[m : m + n] != 0.0, values, sizes):
             return DECLINED
         row += 1

@@ -57,7 +57,18 @@ from .progress import progress_bar
 from .recorder import ResultRecorder
 from .results import SimulationResult
 
-__all__ = ["ServoLoop"]
+__all__ = ["ESTIMATE_ERRORS", "ServoLoop"]
+
+# What a controller's update raises when its own models fail on a valid image: the run stops with
+# status "estimate_failed" (e.g. Eq. (62) has no IK branch within the joint limits, a PnP finds no
+# pose, a belief puts a marker behind the camera)
+ESTIMATE_ERRORS = (
+    PointBehindCameraError,
+    InvalidDisparityError,
+    UnreachablePoseError,
+    PoseEstimationError,
+    FeatureSingularityError,
+)
 
 
 @dataclass
@@ -173,15 +184,7 @@ class ServoLoop:
                     tic = clock()
                     try:
                         controller.update(_own_frame(frame), given)
-                    except (
-                        PointBehindCameraError,
-                        InvalidDisparityError,
-                        UnreachablePoseError,
-                        PoseEstimationError,
-                        FeatureSingularityError,
-                    ) as err:
-                        # the controller's own models failed on a valid image (e.g. Eq. (62) has no
-                        # IK branch within the joint limits, or a belief puts a marker behind the camera)
+                    except ESTIMATE_ERRORS as err:  # the controller's own models failed on a valid image
                         self._reason = f"t = {t:.6g} s: {type(controller).__name__}'s estimate failed: {err}"
                         return "estimate_failed"
                     except Exception as err:  # a user's bug: typed, named, with the samples so far

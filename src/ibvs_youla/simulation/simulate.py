@@ -42,6 +42,7 @@ from ..model.eye_to_hand import mounted
 from ..scenarios import Scenario
 from .actuation import actuation_chain
 from .compiled_loop import CompiledLoop
+from .compiled_pbvs_loop import CompiledPBVSLoop
 from .controller_checks import checked_signals, checked_spec, command_type_of, controller_name, failed
 from .disturbances import Disturbances
 from .free_camera import FreeCameraPlant
@@ -57,6 +58,7 @@ from .settings import SimulationSettings
 __all__ = ["PLANTS", "SENSORS", "Beliefs", "PreparedRun", "default_camera", "prepare_run", "simulate"]
 
 LOOPS = ("auto", "plug-in")
+COMPILED_LOOPS = (CompiledLoop, CompiledPBVSLoop)  # the compiled frame paths, by the law they run
 SENSORS = ("ideal", "depth", "images")
 
 
@@ -196,9 +198,10 @@ def simulate(
             kernels the first time (:mod:`~ibvs_youla.simulation.progress`).
         loop: ``"auto"``: the compiled frame path (:mod:`.compiled_loop`: one compiled call per
             frame, the same result to rounding) when every role is the library's own and one it
-            covers (classical IBVS, the ideal sensor with or without depth, the free camera or
-            the kinematic arm), else the plug-in loop (:mod:`.loop`); ``"plug-in"``: always the
-            plug-in loop. ``result.metadata["loop"]`` says which ran.
+            covers (classical IBVS or PBVS, :mod:`.compiled_pbvs_loop`; the ideal sensor with
+            or without depth; the free camera or the kinematic arm), else the plug-in loop
+            (:mod:`.loop`); ``"plug-in"``: always the plug-in loop. ``result.metadata["loop"]``
+            says which ran.
 
     Returns:
         The result. ``result.status`` is ``"complete"``; ``"markers_lost"`` when a marker
@@ -299,7 +302,12 @@ class PreparedRun:
 
         As :func:`simulate` (its ``loop`` and ``progress``; its errors from the loop).
         """
-        compiled = CompiledLoop.covering(*self.roles, self.recorder) if loop == "auto" else None
+        compiled = None
+        if loop == "auto":
+            for kind in COMPILED_LOOPS:
+                compiled = kind.covering(*self.roles, self.recorder)
+                if compiled is not None:
+                    break
         if compiled is not None:
             self.recorder.metadata["loop"] = "compiled"
             result = compiled.run(progress, self.label)

@@ -167,7 +167,7 @@ def test_what_it_does_not_cover_runs_the_plug_in_loop():
     kwargs = dict(plant="free-camera", camera=iy.PinholeCamera.normalized(), duration=0.2, settings=RATE_25)
     assert iy.simulate(TUTORIAL, "ibvs-current", **kwargs).metadata["loop"] == "compiled"  # PnP depths
     assert iy.simulate(TUTORIAL, "ibvs-desired", **kwargs).metadata["loop"] == "compiled"  # no depths needed
-    assert iy.simulate(TUTORIAL, "2.5d", sensor="depth", **kwargs).metadata["loop"] == "plug-in"
+    assert iy.simulate(TUTORIAL, "mpc-ibvs", sensor="depth", **kwargs).metadata["loop"] == "plug-in"
     noisy = Disturbances(pixel_noise_px=0.5)  # a wrapped sensor
     assert iy.simulate(TUTORIAL, "ibvs-desired", disturbances=noisy, **kwargs).metadata["loop"] == "plug-in"
     with pytest.raises(InvalidParameterError, match="loop"):

@@ -119,7 +119,7 @@ def test_what_it_does_not_cover_runs_the_plug_in_loop():
     assert iy.simulate(TUTORIAL, OwnPBVS(), **kwargs).metadata["loop"] == "plug-in"
     noisy = Disturbances(pixel_noise_px=0.5)
     assert iy.simulate(TUTORIAL, "pbvs", disturbances=noisy, **kwargs).metadata["loop"] == "plug-in"
-    assert iy.simulate(TUTORIAL, "2.5d", **kwargs).metadata["loop"] == "plug-in"  # another law
+    assert iy.simulate(TUTORIAL, "mpc-ibvs", **kwargs).metadata["loop"] == "plug-in"  # another law
 
 
 def scripted_pnp(monkeypatch, script):

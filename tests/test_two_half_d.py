@@ -170,8 +170,7 @@ def test_the_compiled_pose_route_leaves_a_point_behind_the_camera_to_the_referen
     controller.reset(tutorial_task())
     behind = T_O_C([0.0, 0.0, -0.75], [0, 0, 0])  # the target square 0.75 m behind the camera
     twist, error = np.full(6, 7.0), np.full(6, 7.0)
-    args = (controller._T_target_O, controller._reference_O, controller._law, controller._xy)
-    assert not pose_route_twist(behind, *args, twist, error)
+    assert not pose_route_twist(behind, *controller.pose_route_law(), normalized(behind), twist, error)
     np.testing.assert_array_equal(twist, 7.0)
     with pytest.raises(PointBehindCameraError, match=r"2\.5-D reference point is behind the camera"):
         controller._pose_route_reference(behind, normalized(behind))

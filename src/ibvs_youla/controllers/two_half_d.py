@@ -288,9 +288,10 @@ class TwoHalfD(Controller):
         self._Z_target = float(P_target[2])  # Z* [m]
         self._m_ref_target = P_target / P_target[2]  # [x*, y*, 1]
         self._F = float(task.camera.focal_length)
-        # the pose route's compiled law (two_half_d_kernels): (Z*, x*, y*, lambda, use the image point)
-        self._law = np.array([self._Z_target, *self._m_ref_target[:2], self.gain, float(index != "centroid")])
-        self._xy = np.zeros(2)
+        # the pose route's compiled law (two_half_d_kernels.pose_route_twist)
+        per_point = 2 if isinstance(task.camera, PinholeCamera) else 3
+        marker = -1.0 if index == "centroid" else float(index)
+        self._law = np.array([self._Z_target, *self._m_ref_target[:2], self.gain, marker, self._F, per_point])
         self._options = pose_options(task, self.pnp)
         # the camera pose of each frame (estimate_camera_pose, its arguments checked once)
         self.pose_estimator = CameraPoseEstimator(task.camera, task.markers_O, **self._options)
@@ -338,16 +339,20 @@ class TwoHalfD(Controller):
                 x, y = m[i]
         else:
             T_O_C = self.pose_estimator(features, frame.depth)
-            if self.reference_point != "centroid":
-                self._xy[:] = self._image_point(features)
             twist, error = np.empty(6), np.empty(6)
-            law = (self._T_target_O, self._reference_O, self._law, self._xy)
-            if pose_route_twist(T_O_C, *law, twist, error):
+            if pose_route_twist(T_O_C, *self.pose_route_law(), features, twist, error):
                 self._twist, self._error = twist, error
             else:  # the reference point behind the camera (raises), or scipy's theta u
                 self._pose_route_reference(T_O_C, features)
             return
         self._twist_from(R_target_C, rho, x, y)
+
+    def pose_route_law(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(c*T_O (4, 4), the reference point in O (3,) [m], law): the pose route's constants.
+
+        After :meth:`reset`; the arguments of :func:`~.two_half_d_kernels.pose_route_twist`.
+        """
+        return self._T_target_O, self._reference_O, self._law
 
     def _pose_route_reference(self, T_O_C: np.ndarray, features: np.ndarray) -> None:
         """The pose route in numpy: the reference of :func:`~.two_half_d_kernels.pose_route_twist`."""

@@ -17,8 +17,11 @@ reference must decide (the reference point not in front, rho <= 0, which raises;
 (``TwoHalfD._pose_route_reference``, numpy). ``tests/test_two_half_d.py`` pins it to the reference on
 random poses.
 
-Unvalidated: T_O_C and T_target_O (4, 4), reference_O (3,), law = (Z*, x*, y*, lambda, use_xy),
-xy (2,) the marker's normalized image point (used when use_xy != 0), twist and error (6,) written.
+Unvalidated: T_O_C and T_target_O (4, 4), reference_O (3,), law (:data:`LAW_SIZE`,) = (Z* [m],
+x*, y*, lambda [1/s], marker: the reference point's index, or -1 for the centroid, F [m], the
+features per point: 2 monocular, 3 stereo), features (m,) the frame's; twist and error (6,) written.
+The image point of a marker is [u, v] / F, or ((u_l + u_r) / 2, v) / F for stereo
+(``TwoHalfD``'s own).
 """
 
 from __future__ import annotations
@@ -30,7 +33,9 @@ import numpy as np
 from .._jit import jit
 from ..model.rotation_kernels import theta_u_compiled
 
-__all__ = ["pose_route_twist"]
+__all__ = ["LAW_SIZE", "pose_route_twist"]
+
+LAW_SIZE = 7  # (Z*, x*, y*, lambda, marker index or -1, F, features per point)
 
 
 @jit
@@ -39,7 +44,7 @@ def pose_route_twist(
     T_target_O: np.ndarray,
     reference_O: np.ndarray,
     law: np.ndarray,
-    xy: np.ndarray,
+    features: np.ndarray,
     twist: np.ndarray,
     error: np.ndarray,
 ) -> bool:
@@ -61,10 +66,13 @@ def pose_route_twist(
     rho = Z / Z_target
     if not rho > 0.0:
         return False
-    if law[4] != 0.0:
-        x, y = xy[0], xy[1]
-    else:
+    marker, F, per = int(law[4]), law[5], int(law[6])
+    if marker < 0:
         x, y = X / Z, Y / Z
+    elif per == 2:
+        x, y = features[2 * marker] / F, features[2 * marker + 1] / F
+    else:
+        x, y = 0.5 * (features[3 * marker] + features[3 * marker + 1]) / F, features[3 * marker + 2] / F
     tu = np.empty(3)
     if not theta_u_compiled(R, tu):
         return False

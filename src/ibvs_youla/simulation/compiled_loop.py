@@ -166,6 +166,11 @@ class CompiledLoop:
         self.gain = np.zeros(1)  # the law's lambda [1/s] of the last frame (the signal ibvs_gain)
 
     @classmethod
+    def covers_controller(cls, controller: Any) -> bool:
+        """True when this loop runs the controller's law: exactly its type (a subclass may differ)."""
+        return type(controller) is cls.controller_type
+
+    @classmethod
     def covering(
         cls,
         controller: Any,
@@ -179,7 +184,7 @@ class CompiledLoop:
         recorder: ResultRecorder,
     ) -> CompiledLoop | None:
         """The compiled loop of these roles, or None when one is not covered (module docstring)."""
-        if type(controller) is not cls.controller_type or type(sensor) is not MarkerSensor:
+        if not cls.covers_controller(controller) or type(sensor) is not MarkerSensor:
             return None
         if type(plant) is FreeCameraPlant and not chain:
             expected = cls.free_signals

@@ -1,4 +1,9 @@
-"""Compiled frame kernels of PBVS: the law, the sample and the plant step of one frame, one call.
+"""Compiled frame kernels of the pose-based laws: the law, the sample and the plant step of one frame.
+
+PBVS, below, and 2.5-D visual servoing on its pose route
+(:func:`two_half_d_free_camera_step`, :func:`two_half_d_kinematic_tick`: the same frame with
+:func:`~ibvs_youla.controllers.two_half_d_kernels.pose_route_twist`, the law the controller's
+update itself calls, :mod:`.compiled_two_half_d_loop`).
 
 The compiled frame path of :class:`~ibvs_youla.controllers.pbvs.PBVS`
 (:mod:`.compiled_pbvs_loop`): after the sensor (:func:`~.frame_kernels.measure`) and the
@@ -24,10 +29,17 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import jit
+from ..controllers.two_half_d_kernels import pose_route_twist
 from ..model.rotation_kernels import theta_u_compiled
 from .frame_kernels import DECLINED, camera_step, finite, joint_step, record_frame, tick_time
 
-__all__ = ["pbvs_free_camera_step", "pbvs_kinematic_tick", "pbvs_twist"]
+__all__ = [
+    "pbvs_free_camera_step",
+    "pbvs_kinematic_tick",
+    "pbvs_twist",
+    "two_half_d_free_camera_step",
+    "two_half_d_kinematic_tick",
+]
 
 
 @jit
@@ -120,6 +132,73 @@ def pbvs_kinematic_tick(
     """
     if is_frame:
         if not pbvs_twist(T_target_O, T_O_C_estimate, gain, error, twist):
+            return DECLINED
+        record_frame(frames, frame_index, tick_time(k, params), frame, n)
+    return joint_step(k, T_O_C, J_C, state, frame, m, n, params, twist, error, table, row, sizes)  # type: ignore[no-any-return]
+
+
+@jit
+def two_half_d_free_camera_step(
+    k: int,
+    T_O_C: np.ndarray,
+    T_O_C_estimate: np.ndarray,
+    T_target_O: np.ndarray,
+    reference_O: np.ndarray,
+    law: np.ndarray,
+    m: int,
+    n: int,
+    params: np.ndarray,
+    frame: np.ndarray,
+    twist: np.ndarray,
+    error: np.ndarray,
+    table: np.ndarray,
+    row: int,
+    sizes: np.ndarray,
+    frames: np.ndarray,
+) -> int:
+    """Frame k of 2.5-D VS (pose route) on the free camera after the frame and its pose estimate.
+
+    The law (:func:`~ibvs_youla.controllers.two_half_d_kernels.pose_route_twist`, the controller's
+    own) at ``T_O_C_estimate`` on the frame's features, then :func:`~.frame_kernels.camera_step` at
+    the true pose ``T_O_C`` (the sample: twist, then e as ``servo_error``); the next row, or
+    DECLINED where the controller's update computes in numpy (a point behind the camera, scipy's
+    theta u) or the twist is not finite.
+    """
+    if not pose_route_twist(T_O_C_estimate, T_target_O, reference_O, law, frame[:m], twist, error):
+        return DECLINED
+    if not finite(twist):
+        return DECLINED
+    return camera_step(k, T_O_C, frame, m, n, params, twist, error, table, row, sizes, frames)  # type: ignore[no-any-return]
+
+
+@jit
+def two_half_d_kinematic_tick(
+    k: int,
+    is_frame: bool,
+    T_O_C: np.ndarray,
+    J_C: np.ndarray,
+    state: np.ndarray,
+    T_O_C_estimate: np.ndarray,
+    T_target_O: np.ndarray,
+    reference_O: np.ndarray,
+    law: np.ndarray,
+    m: int,
+    n: int,
+    params: np.ndarray,
+    frame: np.ndarray,
+    twist: np.ndarray,
+    error: np.ndarray,
+    table: np.ndarray,
+    row: int,
+    sizes: np.ndarray,
+    frames: np.ndarray,
+    frame_index: int,
+) -> int:
+    """Tick k of 2.5-D VS (pose route) on the kinematic arm, as :func:`pbvs_kinematic_tick` with its law."""
+    if is_frame:
+        if not pose_route_twist(T_O_C_estimate, T_target_O, reference_O, law, frame[:m], twist, error):
+            return DECLINED
+        if not finite(twist):
             return DECLINED
         record_frame(frames, frame_index, tick_time(k, params), frame, n)
     return joint_step(k, T_O_C, J_C, state, frame, m, n, params, twist, error, table, row, sizes)  # type: ignore[no-any-return]

@@ -43,6 +43,7 @@ from ..scenarios import Scenario
 from .actuation import actuation_chain
 from .compiled_loop import CompiledLoop
 from .compiled_pbvs_loop import CompiledPBVSLoop
+from .compiled_two_half_d_loop import CompiledTwoHalfDLoop
 from .controller_checks import checked_signals, checked_spec, command_type_of, controller_name, failed
 from .disturbances import Disturbances
 from .free_camera import FreeCameraPlant
@@ -58,7 +59,8 @@ from .settings import SimulationSettings
 __all__ = ["PLANTS", "SENSORS", "Beliefs", "PreparedRun", "default_camera", "prepare_run", "simulate"]
 
 LOOPS = ("auto", "plug-in")
-COMPILED_LOOPS = (CompiledLoop, CompiledPBVSLoop)  # the compiled frame paths, by the law they run
+# the compiled frame paths, by the law they run
+COMPILED_LOOPS = (CompiledLoop, CompiledPBVSLoop, CompiledTwoHalfDLoop)
 SENSORS = ("ideal", "depth", "images")
 
 
@@ -198,7 +200,8 @@ def simulate(
             kernels the first time (:mod:`~ibvs_youla.simulation.progress`).
         loop: ``"auto"``: the compiled frame path (:mod:`.compiled_loop`: one compiled call per
             frame, the same result to rounding) when every role is the library's own and one it
-            covers (classical IBVS or PBVS, :mod:`.compiled_pbvs_loop`; the ideal sensor with
+            covers (classical IBVS, PBVS, :mod:`.compiled_pbvs_loop`, or 2.5-D on its pose route,
+            :mod:`.compiled_two_half_d_loop`; the ideal sensor with
             or without depth; the free camera or the kinematic arm), else the plug-in loop
             (:mod:`.loop`); ``"plug-in"``: always the plug-in loop. ``result.metadata["loop"]``
             says which ran.

@@ -248,6 +248,9 @@ def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
     assert floor["us_per_call"] == pytest.approx(floor["case_s"] / 36 * 1e6)
     for k in ("1", "2"):
         assert floor["free_1000x7_minutes"][k] == pytest.approx(1000 * floor["case_s"] / int(k) / 60.0)
+    figures = load("figures")  # README's tables: the floor beside the sizings, and among the targets
+    assert "OpenCV's PnP alone: 36 SQPnP calls a case" in figures.campaign(saved)
+    assert "OpenCV's SQPnP calls alone" in figures.targets({"campaign": saved})
 
 
 def test_peers_benchmark_writes_our_steps_and_its_table(tmp_path):

@@ -53,6 +53,22 @@ def arm():
 
 
 @pytest.fixture(scope="module")
+def arm_four_markers(arm):
+    """physical-2 with four markers in view of the target camera (a pinhole camera needs four): the
+    compiled frame paths' arm case with a ZED 2 lens (tests/test_compiled_*.py)."""
+    import dataclasses
+
+    import numpy as np
+
+    from ibvs_youla.scenarios import physical, place_markers
+
+    scenario = physical(2)
+    rays = np.array([[-0.15, -0.1], [0.15, -0.1], [0.12, 0.12], [-0.1, 0.1]])
+    markers = place_markers(arm.camera_pose(scenario.q_target), rays, (2.0, 2.4, 2.8, 2.2))
+    return dataclasses.replace(scenario, markers_O=markers)
+
+
+@pytest.fixture(scope="module")
 def camera():
     """The paper's ZED 2 preset: 86.09 x 55.35 deg, 0.5-25 m (a test file may override it)."""
     return StereoCamera.zed2()

@@ -14,7 +14,6 @@ plug-in loop's tick with its status and reason.
 
 from __future__ import annotations
 
-import dataclasses
 import re
 
 import numpy as np
@@ -25,7 +24,6 @@ from scipy.spatial.transform import Rotation
 import ibvs_youla as iy
 from ibvs_youla.controllers.ibvs import AdaptiveGain, ClassicalIBVS
 from ibvs_youla.exceptions import InvalidParameterError
-from ibvs_youla.scenarios import place_markers
 from ibvs_youla.simulation.disturbances import Disturbances
 from ibvs_youla.simulation.frame_kernels import exp6_integrate
 
@@ -49,20 +47,6 @@ TUTORIAL = iy.Scenario.free_camera(
     T_O_C_target=T_O_C([0, 0, 0.75], [0, 0, 0]),
     markers_O=SQUARE_O,
 )
-
-
-@pytest.fixture(scope="module")
-def arm():
-    return iy.Arm.irb4600()
-
-
-@pytest.fixture(scope="module")
-def arm_four_markers(arm):
-    """physical-2 with four markers in view of the target camera (a pinhole camera needs four)."""
-    scenario = iy.scenarios.physical(2)
-    rays = np.array([[-0.15, -0.1], [0.15, -0.1], [0.12, 0.12], [-0.1, 0.1]])
-    markers = place_markers(arm.camera_pose(scenario.q_target), rays, (2.0, 2.4, 2.8, 2.2))
-    return dataclasses.replace(scenario, markers_O=markers)
 
 
 def both(scenario, controller, **kwargs):

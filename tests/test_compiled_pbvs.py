@@ -16,8 +16,6 @@ both runs): the views where OpenCV itself fails are not met in a short run.
 
 from __future__ import annotations
 
-import dataclasses
-
 import cv2
 import numpy as np
 import pytest
@@ -25,26 +23,11 @@ import pytest
 import ibvs_youla as iy
 from ibvs_youla.controllers.pbvs import PBVS
 from ibvs_youla.exceptions import ControllerError
-from ibvs_youla.scenarios import place_markers
 from ibvs_youla.simulation.disturbances import Disturbances
 from test_compiled_frame_path import RATE_25, SQPNP_TOLERANCE, TUTORIAL, assert_same_run, both
 
 NORMALIZED = iy.PinholeCamera.normalized()
 FREE = dict(plant="free-camera", camera=NORMALIZED, duration=3.0, settings=RATE_25)
-
-
-@pytest.fixture(scope="module")
-def arm():
-    return iy.Arm.irb4600()
-
-
-@pytest.fixture(scope="module")
-def arm_four_markers(arm):
-    """physical-2 with four markers in view of the target camera (a pinhole camera needs four)."""
-    scenario = iy.scenarios.physical(2)
-    rays = np.array([[-0.15, -0.1], [0.15, -0.1], [0.12, 0.12], [-0.1, 0.1]])
-    markers = place_markers(arm.camera_pose(scenario.q_target), rays, (2.0, 2.4, 2.8, 2.2))
-    return dataclasses.replace(scenario, markers_O=markers)
 
 
 def assert_pbvs_run(compiled, plugged, tolerance=1e-12):

@@ -22,7 +22,7 @@ import ibvs_youla as iy
 from ibvs_youla.controllers.two_half_d import TwoHalfD
 from ibvs_youla.simulation.disturbances import Disturbances
 from test_compiled_frame_path import RATE_25, SQPNP_TOLERANCE, TUTORIAL, assert_same_run, both
-from test_compiled_pbvs import arm, arm_four_markers, scripted_pnp  # noqa: F401 (fixtures)
+from test_compiled_pbvs import scripted_pnp
 
 NORMALIZED = iy.PinholeCamera.normalized()
 FREE = dict(plant="free-camera", camera=NORMALIZED, duration=3.0, settings=RATE_25)
@@ -59,13 +59,13 @@ def test_free_camera_stereo(reference_point):
     assert_two_half_d_run(*runs)
 
 
-def test_kinematic_arm_stereo(arm):  # noqa: F811 (the fixture)
+def test_kinematic_arm_stereo(arm):
     runs = both(iy.scenarios.physical(2), "2.5d", plant="kinematic", duration=2.0, settings=RATE_25, arm=arm)
     assert_two_half_d_run(*runs)
 
 
 @pytest.mark.parametrize("sensor", ["depth", None])
-def test_kinematic_arm_pinhole(sensor, arm, arm_four_markers):  # noqa: F811 (the fixtures)
+def test_kinematic_arm_pinhole(sensor, arm, arm_four_markers):
     """A ZED 2 lens: Kabsch on measured depths (1e-12), or SQPnP (1e-7)."""
     runs = both(
         arm_four_markers, "2.5d", plant="kinematic", camera=iy.PinholeCamera.zed2(), duration=2.0,
@@ -74,7 +74,7 @@ def test_kinematic_arm_pinhole(sensor, arm, arm_four_markers):  # noqa: F811 (th
     assert_two_half_d_run(*runs, tolerance=1e-12 if sensor == "depth" else SQPNP_TOLERANCE)
 
 
-def test_several_ticks_per_frame_and_eye_to_hand(arm):  # noqa: F811 (the fixture)
+def test_several_ticks_per_frame_and_eye_to_hand(arm):
     """The arm at 250 Hz and the camera at 25 Hz (the twist and e held), every 3rd sample; eye-to-hand."""
     settings = iy.SimulationSettings(joint_rate_hz=250.0, camera_rate_hz=25.0, record_every=3)
     runs = both(iy.scenarios.physical(2), "2.5d", plant="kinematic", duration=0.5, settings=settings, arm=arm)

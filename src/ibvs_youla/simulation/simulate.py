@@ -41,6 +41,7 @@ from ..model.camera import PinholeCamera, StereoCamera, default_camera
 from ..model.eye_to_hand import mounted
 from ..scenarios import Scenario
 from .actuation import actuation_chain
+from .compiled_hybrid_loop import CompiledHybridLoop
 from .compiled_loop import CompiledLoop
 from .compiled_pbvs_loop import CompiledPBVSLoop
 from .controller_checks import checked_signals, checked_spec, command_type_of, controller_name, failed
@@ -58,7 +59,8 @@ from .settings import SimulationSettings
 __all__ = ["PLANTS", "SENSORS", "Beliefs", "PreparedRun", "default_camera", "prepare_run", "simulate"]
 
 LOOPS = ("auto", "plug-in")
-COMPILED_LOOPS = (CompiledLoop, CompiledPBVSLoop)  # the compiled frame paths, by the law they run
+# the compiled frame paths, by the law they run
+COMPILED_LOOPS = (CompiledLoop, CompiledPBVSLoop, CompiledHybridLoop)
 SENSORS = ("ideal", "depth", "images")
 
 

@@ -18,9 +18,10 @@ does the rest of the frame:
   every tick, the sample ending with ``hybrid_mode`` and ``hybrid_switches``.
 
 V_i and V_p decide the switches, so they are the reference's floats, not merely close: the squared
-norms are ``np.dot`` of a vector with itself, which calls BLAS ``ddot`` as numpy's ``e @ e`` does
-(the same OpenBLAS kernel: equal to the bit on 20,000 random vectors of 1 to 40 entries, where a
-sum in index order differs on a quarter of them). The laws' twists equal the plug-in loop's to
+norms (:func:`squared_norm`) are ``np.dot`` of a vector with itself, which calls BLAS ``ddot`` as
+numpy's ``e @ e`` does (the same OpenBLAS kernel: equal to the bit on 20,000 random vectors of 1 to
+40 entries, where a sum in index order differs on a quarter of them; ``tests/test_compiled_hybrid.py``
+pins 2,000). The laws' twists equal the plug-in loop's to
 rounding (``tests/test_compiled_hybrid.py``). Like :mod:`.frame_kernels`, the kernels do not
 validate and never raise: where either law's reference would raise or give a non-finite twist
 (or theta u is scipy's to compute) they return :data:`~.frame_kernels.DECLINED`, and the caller
@@ -42,10 +43,16 @@ from .._jit import jit
 from .frame_kernels import DECLINED, camera_step, finite, ibvs_twist, joint_step, record_frame, tick_time
 from .pose_frame_kernels import pbvs_twist
 
-__all__ = ["hybrid_free_camera_step", "hybrid_kinematic_tick", "hybrid_twist"]
+__all__ = ["hybrid_free_camera_step", "hybrid_kinematic_tick", "hybrid_twist", "squared_norm"]
 
 _PBVS_GAIN, _FOCAL, _MARGIN, _MIN_DWELL = 0, 1, 2, 3  # settings
 _MODE, _SWITCHES, _DWELL, _GAMMA_I, _GAMMA_P = 0, 1, 2, 3, 4  # state
+
+
+@jit
+def squared_norm(x: np.ndarray) -> float:
+    """||x||^2 of a contiguous float64 vector, numpy's ``x @ x`` (BLAS ``ddot``: module docstring)."""
+    return np.dot(x, x)  # type: ignore[no-any-return]
 
 
 @jit
@@ -81,8 +88,8 @@ def hybrid_twist(
     e_image = np.empty(m)  # (s - s*) / F
     for r in range(m):
         e_image[r] = (frame[r] - law[r, 0]) / settings[_FOCAL]
-    V_i = 0.5 * np.dot(e_image, e_image)
-    V_p = 0.5 * np.dot(error, error)
+    V_i = 0.5 * squared_norm(e_image)
+    V_p = 0.5 * squared_norm(error)
     if first:
         state[_GAMMA_I] = (1.0 + settings[_MARGIN]) * V_i
         state[_GAMMA_P] = (1.0 + settings[_MARGIN]) * V_p

@@ -10,6 +10,8 @@ loop="plug-in")`` keeps the plug-in loop):
   or a :class:`~ibvs_youla.controllers.pbvs.PBVS`, whose law
   :class:`~.compiled_pbvs_loop.CompiledPBVSLoop` runs in this loop (its pose from the controller's
   own estimator, then one compiled call: :mod:`.compiled_pbvs_loop`);
+  or a :class:`~ibvs_youla.controllers.hybrid.HybridSwitched`, both laws and the switch in one
+  compiled call after the same estimator (:mod:`.compiled_hybrid_loop`);
 * the sensor: the ideal :class:`~.sensor.MarkerSensor`, with or without depth, not wrapped by a
   disturbance (noise, dropouts, latency, images);
 * the plant: the free camera (:class:`~.free_camera.FreeCameraPlant`), or the kinematic arm
@@ -32,7 +34,8 @@ the free camera is one compiled call (two around the pose); a tick of the kinema
 Pinocchio's camera pose and J_C (the arm's kinematics) and one compiled call.
 
 It gives the plug-in loop's result to rounding (``tests/test_compiled_frame_path.py`` and, for
-PBVS, ``tests/test_compiled_pbvs.py``: 1e-12 on every method x plant x camera covered), with
+PBVS, ``tests/test_compiled_pbvs.py``, for the hybrid law ``tests/test_compiled_hybrid.py``: 1e-12
+on every method x plant x camera covered), with
 ``metadata["loop"] = "compiled"``, except where SQPnP is in the loop (the depths from the PnP pose,
 or PBVS's monocular pose): SQPnP stops its iterations at a step of ~1e-5 (``||delta||^2 <=
 1e-10``), so a last-bit difference of the features can move its pose by up to ~1e-8 of its scale,
@@ -91,7 +94,8 @@ class CompiledLoop:
 
     Build it with :meth:`covering`, which returns None for roles it does not cover. The loop over
     frames and ticks is any law's; a law is its controller type, its recorded signals and the
-    methods a subclass overrides (:class:`~.compiled_pbvs_loop.CompiledPBVSLoop`):
+    methods a subclass overrides (:class:`~.compiled_pbvs_loop.CompiledPBVSLoop`,
+    :class:`~.compiled_hybrid_loop.CompiledHybridLoop`):
     :meth:`prepare_law` (its packed data), :meth:`law_inputs` (what it takes from Python between
     the sensor and its compiled call) and that call, :meth:`camera_frame` (the free camera) and
     :meth:`arm_tick` (the kinematic arm). A law that stops the run sets :attr:`stop_status`.

@@ -200,8 +200,9 @@ def simulate(
             kernels the first time (:mod:`~ibvs_youla.simulation.progress`).
         loop: ``"auto"``: the compiled frame path (:mod:`.compiled_loop`: one compiled call per
             frame, the same result to rounding) when every role is the library's own and one it
-            covers (classical IBVS or PBVS, :mod:`.compiled_pbvs_loop`; the ideal sensor with
-            or without depth; the free camera or the kinematic arm), else the plug-in loop
+            covers (classical IBVS, PBVS (:mod:`.compiled_pbvs_loop`) or the hybrid law
+            (:mod:`.compiled_hybrid_loop`); the ideal sensor with or without depth; the free
+            camera or the kinematic arm), else the plug-in loop
             (:mod:`.loop`); ``"plug-in"``: always the plug-in loop. ``result.metadata["loop"]``
             says which ran.
 

@@ -6,17 +6,17 @@ and compares every recorded number (times, camera poses, features, visibility, t
 ``hybrid_mode`` and ``hybrid_switches``, the frame log). Cases: the free camera with the normalized
 camera (SQPnP, the default, and IPPE), a depth sensor (Kabsch) and the stereo ZED 2 (the pose and
 L's depths from the triangulated points); the kinematic arm with the stereo ZED 2 and a ZED 2 lens
-with a depth sensor or SQPnP, and several ticks per frame with a recording stride. The runs that
-switch: ``TURNED`` starts 170 deg about the optical axis from the goal, slightly tilted, where IBVS
-retreats until V_p reaches its bound and the law switches to PBVS at 0.48 s; ``SWUNG``, started in
-PBVS, moves the image away until V_i reaches its bound and the law switches to IBVS at 0.16 s (its
-first frame out of the dwell). (Not 180 deg exactly: there theta u and -theta u are the same
-rotation, and which one PBVS turns by flips with the last bits of the pose, in any two loops that
-round differently: the twists part by pi rad/s.) On the arm, a one-frame dwell with no margin
-switches at the first frame (V(0) is its own bound), the other law then driving the arm. Where
-SQPnP is in the loop its stopping tolerance bounds the agreement (1e-7, ``compiled_loop``'s
-docstring). What it does not cover runs the plug-in loop; an estimate that fails stops at the
-plug-in loop's tick with its reason, and both loops solve one PnP per frame.
+with a depth sensor or SQPnP, several ticks per frame with a recording stride, eye-to-hand; beliefs
+other than the truth. The runs that switch: ``TURNED`` starts 170 deg about the optical axis from
+the goal, slightly tilted, where IBVS retreats until V_p reaches its bound and the law switches to
+PBVS at 0.48 s; ``SWUNG``, started in PBVS, moves the image away until V_i reaches its bound and
+the law switches to IBVS at 0.16 s (its first frame out of the dwell). (Not 180 deg exactly: there
+theta u and -theta u are the same rotation, and which one PBVS turns by flips with the last bits of
+the pose, in any two loops that round differently: the twists part by pi rad/s.) On the arm, a
+one-frame dwell with no margin switches at the first frame (V(0) is its own bound), the other law
+then driving the arm. Where SQPnP is in the loop its stopping tolerance bounds the agreement (1e-7,
+``compiled_loop``'s docstring). What it does not cover runs the plug-in loop; an estimate that
+fails stops at the plug-in loop's tick with its reason, and both loops solve one PnP per frame.
 """
 
 from __future__ import annotations
@@ -157,6 +157,23 @@ def test_kinematic_arm_pinhole(sensor, arm, arm_four_markers):
         camera=iy.PinholeCamera.zed2(), duration=2.0, settings=RATE_25, arm=arm, sensor=sensor,
     )  # fmt: skip
     assert_hybrid_run(*runs, tolerance=1e-12 if sensor == "depth" else SQPNP_TOLERANCE)
+
+
+def test_eye_to_hand(arm):
+    """The fixed camera's pose in the markers' carrier frame, its J_rel: as eye-in-hand (measured 2e-15)."""
+    scenario = iy.scenarios.eye_to_hand(arm, seed=1)
+    runs = both(scenario, HybridSwitched(min_dwell=1), plant="kinematic", duration=0.3)
+    assert_hybrid_run(*runs, switched_at=[0.0])
+
+
+def test_beliefs_other_than_the_truth():
+    """The controller's camera 2 % long and its markers 1 cm off: its F in V_i and its pose, not the
+    sensor's; a depth sensor (measured 2e-14), switching at 0.48 s as without them."""
+    disturbances = Disturbances(focal_length_scale=1.02, marker_offset_m=(0.01, 0.0, 0.0))
+    compiled, plugged = both(TURNED, "hybrid", sensor="depth", disturbances=disturbances, **FREE)
+    assert_hybrid_run(compiled, plugged, switched_at=[0.48])
+    truth = iy.simulate(TURNED, "hybrid", sensor="depth", **FREE)
+    assert np.abs(compiled.camera_pose[-1] - truth.camera_pose[-1]).max() > 1e-3  # the beliefs acted
 
 
 def test_what_it_does_not_cover_runs_the_plug_in_loop():

@@ -4,10 +4,10 @@
 disturbances) in one ``simulate_batch`` call and the others alone; its rows are compared with
 ``run_spec``'s, every column but the measured times, on seeded free-planar cases (monocular
 normalized camera, the depths from SQPnP) and arm-physical cases on the kinematic arm (stereo).
-They are equal to the bit. Against the plug-in loop (what ``run_spec`` gave before classical IBVS and
-PBVS had compiled paths; PBVS's rows, run alone, included), every number to 1e-9, relative or
-absolute (SQPnP's stopping tolerance is the difference, measured 6e-10 relative on
-``final_position_mm``).
+They are equal to the bit. Against the plug-in loop (what ``run_spec`` gave before classical IBVS,
+PBVS and the hybrid law had compiled paths; PBVS's and the hybrid law's rows, run alone, included),
+every number to 1e-9, relative or absolute (SQPnP's stopping tolerance is the difference, measured
+6e-10 relative on ``final_position_mm``).
 """
 
 from __future__ import annotations
@@ -65,6 +65,18 @@ def test_batched_rows_are_the_rows_of_runs_alone_and_of_the_plug_in_loop(free_sp
         result = simulate(**spec.build(), loop="plug-in")  # the row before the compiled paths
         assert result.metadata["loop"] == "plug-in"
         same_row(row, row_from_result(spec, result), tolerance=1e-9)
+
+
+def test_the_hybrid_laws_rows_are_the_plug_in_loops():
+    """The hybrid law runs alone, on its compiled frame path: its rows are the plug-in loop's (what
+    ``run_spec`` gave before that path) to 1e-9. None of these five switches (the switching runs are
+    ``tests/test_compiled_hybrid.py``'s)."""
+    specs = specs_for(generate_cases("free-planar", 5, 0), ("hybrid",), seed=0, **FREE)
+    for spec in specs:
+        compiled = simulate(**spec.build())
+        plugged = simulate(**spec.build(), loop="plug-in")
+        assert compiled.metadata["loop"] == "compiled" and plugged.metadata["loop"] == "plug-in"
+        same_row(run_spec(spec), row_from_result(spec, plugged), tolerance=1e-9)
 
 
 def test_the_kinematic_arm_with_the_stereo_camera():

@@ -61,20 +61,24 @@ def test_the_local_minimum_of_ibvs_traps_the_hybrid_law_too():
 
 def test_with_no_reason_to_switch_it_is_classical_ibvs():
     start, target = T_O_C([0.15, -0.1, 1.0], [10, -10, 50]), T_O_C([0, 0, 0.75], [0, 0, 0])
-    # classical IBVS through the plug-in loop, as the hybrid law runs it (its own compiled frame path
-    # makes other rounding, which SQPnP's stopping tolerance amplifies: 1e-7 there)
-    hybrid, ibvs = run(start, target, "hybrid"), run(start, target, "ibvs-current", loop="plug-in")
+    # both in the plug-in loop: each law's compiled frame path rounds otherwise (1e-7 from it there,
+    # SQPnP's stopping tolerance amplifying the last bits: tests/test_compiled_hybrid.py)
+    hybrid = run(start, target, "hybrid", loop="plug-in")
+    ibvs = run(start, target, "ibvs-current", loop="plug-in")
     assert hybrid.hybrid_switches[-1, 0] == 0
     np.testing.assert_array_equal(hybrid.camera_pose, ibvs.camera_pose)
 
 
 def test_starting_in_pbvs_and_bad_options():
     start, target = T_O_C([0.15, -0.1, 1.0], [10, -10, 50]), T_O_C([0, 0, 0.75], [0, 0, 0])
-    # PBVS through the plug-in loop, as the hybrid law runs it (its own compiled frame path makes
-    # other rounding, which SQPnP's stopping tolerance amplifies: 1e-7 there)
-    hybrid, pbvs = run(start, target, "hybrid", start_mode="pbvs"), run(start, target, "pbvs", loop="plug-in")
-    assert hybrid.hybrid_switches[-1, 0] == 0
-    np.testing.assert_array_equal(hybrid.camera_pose, pbvs.camera_pose)
+    # in either loop, both laws in the same one: the compiled paths of the hybrid law and of PBVS ask
+    # the same estimator for the same pose and give it to the same kernel (pbvs_twist)
+    for loop in ("plug-in", "auto"):
+        hybrid = run(start, target, "hybrid", loop=loop, start_mode="pbvs")
+        pbvs = run(start, target, "pbvs", loop=loop)
+        assert hybrid.metadata["loop"] == pbvs.metadata["loop"] == ("compiled" if loop == "auto" else loop)
+        assert hybrid.hybrid_switches[-1, 0] == 0
+        np.testing.assert_array_equal(hybrid.camera_pose, pbvs.camera_pose)
     with pytest.raises(InvalidParameterError, match="start_mode"):
         HybridSwitched(start_mode="2.5d")
     with pytest.raises(InvalidParameterError, match="margin"):

@@ -105,6 +105,16 @@ class HybridSwitched(Controller):
         self._switches = 0
         self._focal = float(task.camera.focal_length)
 
+    @property
+    def ibvs(self) -> ClassicalIBVS:
+        """The IBVS law (L at the current features, this law's gain and ``pnp``), reset with the task."""
+        return self._ibvs
+
+    @property
+    def pbvs(self) -> PBVS:
+        """The PBVS law (this law's gain and ``pnp``), reset with the task."""
+        return self._pbvs
+
     def lyapunov(self) -> tuple[float, float]:
         """(V_i, V_p) of the last frame (module docstring)."""
         e_image = self._image_error / self._focal

@@ -10,6 +10,10 @@ loop="plug-in")`` keeps the plug-in loop):
   or a :class:`~ibvs_youla.controllers.pbvs.PBVS`, whose law
   :class:`~.compiled_pbvs_loop.CompiledPBVSLoop` runs in this loop (its pose from the controller's
   own estimator, then one compiled call: :mod:`.compiled_pbvs_loop`);
+  or a :class:`~ibvs_youla.controllers.two_half_d.TwoHalfD` on its pose route, PBVS's loop with
+  the 2.5-D law (:mod:`.compiled_two_half_d_loop`);
+  or a :class:`~ibvs_youla.controllers.hybrid.HybridSwitched`, both laws and the switch in one
+  compiled call after the same estimator (:mod:`.compiled_hybrid_loop`);
 * the sensor: the ideal :class:`~.sensor.MarkerSensor`, with or without depth, not wrapped by a
   disturbance (noise, dropouts, latency, images);
 * the plant: the free camera (:class:`~.free_camera.FreeCameraPlant`), or the kinematic arm
@@ -32,9 +36,11 @@ the free camera is one compiled call (two around the pose); a tick of the kinema
 Pinocchio's camera pose and J_C (the arm's kinematics) and one compiled call.
 
 It gives the plug-in loop's result to rounding (``tests/test_compiled_frame_path.py`` and, for
-PBVS, ``tests/test_compiled_pbvs.py``: 1e-12 on every method x plant x camera covered), with
+PBVS, ``tests/test_compiled_pbvs.py``, for 2.5-D ``tests/test_compiled_two_half_d.py``, for the
+hybrid law ``tests/test_compiled_hybrid.py``: 1e-12
+on every method x plant x camera covered), with
 ``metadata["loop"] = "compiled"``, except where SQPnP is in the loop (the depths from the PnP pose,
-or PBVS's monocular pose): SQPnP stops its iterations at a step of ~1e-5 (``||delta||^2 <=
+or a monocular pose): SQPnP stops its iterations at a step of ~1e-5 (``||delta||^2 <=
 1e-10``), so a last-bit difference of the features can move its pose by up to ~1e-8 of its scale,
 and the run then equals the plug-in loop's to that tolerance (the test: 1e-7; measured 4e-9 on the
 twist). A batch of classical IBVS runs (:mod:`.batch_loop`) makes the same calls in the same order,
@@ -49,8 +55,8 @@ gives its status or error.
 What differs: ``metadata["phase_seconds"]`` has the whole loop in
 ``frame`` (the phases are one call), ``update_time`` is each frame's compiled call (the sensor,
 the law, the recording and the plant step, not the law alone), and the controller object is reset
-but not stepped (its ``update`` is not called; its last twist is not kept; PBVS's pose estimator is
-called, as its update would).
+but not stepped (its ``update`` is not called; its last twist is not kept; the pose-based laws'
+estimator is called, as their update would).
 """
 
 from __future__ import annotations
@@ -91,7 +97,8 @@ class CompiledLoop:
 
     Build it with :meth:`covering`, which returns None for roles it does not cover. The loop over
     frames and ticks is any law's; a law is its controller type, its recorded signals and the
-    methods a subclass overrides (:class:`~.compiled_pbvs_loop.CompiledPBVSLoop`):
+    methods a subclass overrides (:class:`~.compiled_pbvs_loop.CompiledPBVSLoop`,
+    :class:`~.compiled_hybrid_loop.CompiledHybridLoop`):
     :meth:`prepare_law` (its packed data), :meth:`law_inputs` (what it takes from Python between
     the sensor and its compiled call) and that call, :meth:`camera_frame` (the free camera) and
     :meth:`arm_tick` (the kinematic arm). A law that stops the run sets :attr:`stop_status`.

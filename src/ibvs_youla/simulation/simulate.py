@@ -41,6 +41,7 @@ from ..model.camera import PinholeCamera, StereoCamera, default_camera
 from ..model.eye_to_hand import mounted
 from ..scenarios import Scenario
 from .actuation import actuation_chain
+from .compiled_hybrid_loop import CompiledHybridLoop
 from .compiled_loop import CompiledLoop
 from .compiled_pbvs_loop import CompiledPBVSLoop
 from .compiled_two_half_d_loop import CompiledTwoHalfDLoop
@@ -60,7 +61,7 @@ __all__ = ["PLANTS", "SENSORS", "Beliefs", "PreparedRun", "default_camera", "pre
 
 LOOPS = ("auto", "plug-in")
 # the compiled frame paths, by the law they run
-COMPILED_LOOPS = (CompiledLoop, CompiledPBVSLoop, CompiledTwoHalfDLoop)
+COMPILED_LOOPS = (CompiledLoop, CompiledPBVSLoop, CompiledTwoHalfDLoop, CompiledHybridLoop)
 SENSORS = ("ideal", "depth", "images")
 
 
@@ -200,9 +201,10 @@ def simulate(
             kernels the first time (:mod:`~ibvs_youla.simulation.progress`).
         loop: ``"auto"``: the compiled frame path (:mod:`.compiled_loop`: one compiled call per
             frame, the same result to rounding) when every role is the library's own and one it
-            covers (classical IBVS, PBVS, :mod:`.compiled_pbvs_loop`, or 2.5-D on its pose route,
-            :mod:`.compiled_two_half_d_loop`; the ideal sensor with
-            or without depth; the free camera or the kinematic arm), else the plug-in loop
+            covers (classical IBVS, PBVS (:mod:`.compiled_pbvs_loop`), 2.5-D on its pose route
+            (:mod:`.compiled_two_half_d_loop`) or the hybrid law (:mod:`.compiled_hybrid_loop`);
+            the ideal sensor with or without depth; the free camera or the kinematic arm), else the
+            plug-in loop
             (:mod:`.loop`); ``"plug-in"``: always the plug-in loop. ``result.metadata["loop"]``
             says which ran.
 

@@ -33,9 +33,10 @@ Campaign sizing (the speed targets): a 1,000-case, seven-method campaign of 20 s
 runner, its tasks and Parquet rows) on a local cluster of 2 workers, N free-planar cases x the
 seven methods, its minutes from the first submission to the last row (``run_s``) and from the call
 to its return (``wall_s``, the cluster's start included); the rows of its first ``--check-cases``
-cases are compared with ``run_spec``'s (equal, timing aside) and, for the classical IBVS methods,
-with the plug-in loop's (every number to 1e-9, relative or absolute: what the rows were before
-those methods had a compiled path). Otherwise (and besides) projected from the
+cases are compared with ``run_spec``'s (equal, timing aside) and, for the methods with a compiled
+frame path (``COMPILED_METHODS``: the classical IBVS laws, PBVS, 2.5-D, the hybrid law), with the
+plug-in loop's (every number to 1e-9, relative or absolute: what the rows were before those methods
+had a compiled path). Otherwise (and besides) projected from the
 runs per minute measured on 2 workers: ``projection["free_1000x7_minutes"]`` (target under 5
 minutes) from the free campaign, and ``projection["arm_1000x7_minutes"]`` (target under 30) from
 the arm campaign at the default rates, for the seven twist methods (their mean run, the dearer
@@ -89,6 +90,8 @@ TARGETS = {
     "arm_1000x7_minutes_max": 30.0,
 }
 ROW_TOLERANCE = 1e-9  # relative or absolute, rows against the plug-in loop's
+# the methods of TWIST_METHODS with a compiled frame path (their rows are checked against the plug-in loop's)
+COMPILED_METHODS = ("ibvs-current", "ibvs-desired", "ibvs-mean", "pbvs", "2.5d", "hybrid")
 PNP_REPLAYS = 5  # timed replays of one case's PnP calls (pnp_floor)
 
 
@@ -478,8 +481,8 @@ def pnp_floor(specs: list[ExperimentSpec]) -> dict[str, Any]:
 def full_free_campaign(args: argparse.Namespace) -> dict[str, Any]:
     """``run_campaign`` of ``--full-cases`` free-planar cases x the seven methods on 2 local workers, timed.
 
-    Its first ``--check-cases`` cases' rows are compared with ``run_spec``'s and, for the classical
-    IBVS methods, with the plug-in loop's (module docstring).
+    Its first ``--check-cases`` cases' rows are compared with ``run_spec``'s and, for the methods with
+    a compiled frame path (:data:`COMPILED_METHODS`), with the plug-in loop's (module docstring).
     """
     from ibvs_youla.campaign.definition import CampaignDefinition
     from ibvs_youla.campaign.runner import run_campaign
@@ -507,7 +510,7 @@ def full_free_campaign(args: argparse.Namespace) -> dict[str, Any]:
     for spec in checked:
         row = {"key": spec.key, **stored.loc[spec.key].to_dict()}
         same = same and _deviation(row, run_spec(spec)) == 0.0
-        if spec.controller.startswith("ibvs-"):
+        if spec.controller in COMPILED_METHODS:
             worst = max(worst, _deviation(row, _plug_in_row(spec)))
     return {
         "cases": args.full_cases,

@@ -248,6 +248,13 @@ def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
     assert floor["us_per_call"] == pytest.approx(floor["case_s"] / 36 * 1e6)
     for k in ("1", "2"):
         assert floor["free_1000x7_minutes"][k] == pytest.approx(1000 * floor["case_s"] / int(k) / 60.0)
+    # the methods whose measured-campaign rows are checked against the plug-in loop: those that run compiled
+    import ibvs_youla as iy
+    from test_compiled_frame_path import RATE_25, TUTORIAL
+
+    free = dict(plant="free-camera", camera=iy.PinholeCamera.normalized(), duration=0.08, settings=RATE_25)
+    loops = {m: iy.simulate(TUTORIAL, m, **free).metadata["loop"] for m in bench.TWIST_METHODS}
+    assert {m for m, loop in loops.items() if loop == "compiled"} == set(bench.COMPILED_METHODS)
     figures = load("figures")  # README's tables: the floor beside the sizings, and among the targets
     assert "OpenCV's PnP alone: 36 SQPnP calls a case" in figures.campaign(saved)
     assert "OpenCV's SQPnP calls alone" in figures.targets({"campaign": saved})

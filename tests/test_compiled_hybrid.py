@@ -92,6 +92,13 @@ def test_free_camera_depth_sensor_switching_to_pbvs():
     assert_hybrid_run(*both(TURNED, "hybrid", sensor="depth", **FREE), switched_at=[0.48])  # measured 7e-14
 
 
+@pytest.mark.parametrize(("options", "switched_at"), [({"margin": 0.5}, [1.0]), ({"gain": 0.9}, [0.28])])
+def test_the_margin_and_the_gain_each_move_the_switch_alike_in_both_loops(options, switched_at):
+    """Each option alone moves the switch from 0.48 s (the bounds (1 + margin) V(0); both laws' lambda):
+    margin 0.5 to 1.0 s, gain 0.9 to 0.28 s, the same in both loops (a depth sensor: 1e-12)."""
+    assert_hybrid_run(*both(TURNED, HybridSwitched(**options), sensor="depth", **FREE), switched_at=switched_at)
+
+
 @pytest.mark.parametrize("sensor", ["depth", None])
 def test_free_camera_started_in_pbvs_switching_to_ibvs(sensor):
     """PBVS to IBVS at 0.16 s, the first frame out of the 5-frame dwell: a depth sensor (1e-12;

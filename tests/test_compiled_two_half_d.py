@@ -142,8 +142,35 @@ def test_campaign_rows_stay_those_of_the_numpy_law(monkeypatch):
         result = iy.simulate(**spec.build(), loop="plug-in")
         assert row["status"] == "complete" and result.metadata["loop"] == "plug-in"
         same_row(row, row_from_result(spec, result), tolerance=1e-9)
-    monkeypatch.setattr(two_half_d, "pose_route_twist", lambda *args: False)  # update's numpy law
+    declined = []
+    monkeypatch.setattr(two_half_d, "pose_route_twist", lambda *args: declined.append(1))  # the numpy law
     for spec, row in zip(specs, rows, strict=True):
         result = iy.simulate(**spec.build(), loop="plug-in")
         same_row(row, row_from_result(spec, result), tolerance=1e-9)
         assert result.signals["servo_error"][-1, 0] != 0.0  # the law acted
+    assert len(declined) == 3 * 201  # every frame of the three runs (8 s at 25 Hz) took the numpy law
+
+
+def test_a_run_the_compiled_path_gives_up_counts_its_ippe_fallbacks_once(monkeypatch):
+    """IPPE fails on the first images, then the scripted PnP puts the square behind the camera (both by
+    the image): the compiled path declines at the 3rd image and the plug-in loop makes the run again.
+    The estimator is restarted first, so pnp_fallbacks counts the plug-in run's images only (2 as with
+    loop="plug-in"; 4 before: the compiled attempt's were kept)."""
+    import cv2
+
+    nan = np.full((3, 1), np.nan)
+    behind = (True, np.zeros((3, 1)), np.array([[0.0], [0.0], [-0.75]]))
+
+    def script(call, image, flags):
+        if flags == cv2.SOLVEPNP_IPPE and np.ptp(image[:, 0]) < 0.2790:
+            return (True, nan, nan)
+        return behind if np.ptp(image[:, 0]) > 0.2795 else None
+
+    restart = scripted_pnp(monkeypatch, script)
+    fallbacks = {}
+    for loop in ("auto", "plug-in"):
+        restart()
+        result = iy.simulate(TUTORIAL, TwoHalfD(pnp="ippe"), loop=loop, **FREE)
+        assert result.metadata["loop"] == "plug-in" and result.status == "estimate_failed"
+        fallbacks[loop] = result.metadata["pnp_fallbacks"]
+    assert fallbacks == {"auto": 2, "plug-in": 2}

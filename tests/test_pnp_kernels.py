@@ -112,3 +112,40 @@ def test_write_marker_depths_reports_opencvs_error_as_marker_depths_does(monkeyp
     monkeypatch.setattr(cv2, "solvePnP", fails)
     with pytest.raises(PoseEstimationError, match=r"OpenCV solvePnP \(sqpnp\) failed"):
         estimator.write_marker_depths(np.full(8, 0.1), np.zeros(4))
+
+
+def test_write_marker_depths_does_not_let_an_older_image_answer_for_a_later_one():
+    """Images A (IPPE finds no pose), B, then A again: the third solves A again and counts it, as
+    marker_depths does (the fast path forgets the cached PnP of the first A: 2 fallbacks, not 1)."""
+    from test_pnp_option import FRONTO_PARALLEL
+
+    a = FRONTO_PARALLEL.ravel().copy()
+    b = a.copy()
+    b[0] += 1e-3
+    counts = {}
+    for name in ("marker_depths", "write_marker_depths"):
+        estimator = CameraPoseEstimator(iy.PinholeCamera.normalized(), SQUARE, method="ippe")
+        out = np.zeros(4)
+        for features in (a, b, a):
+            if name == "marker_depths":
+                out[:] = estimator.marker_depths(features.copy())
+            else:
+                estimator.write_marker_depths(features.copy(), out)
+        counts[name] = estimator.fallbacks
+    assert counts == {"marker_depths": 2, "write_marker_depths": 2}
+
+
+def test_write_marker_depths_checks_its_arguments():
+    """A stereo estimator, features of another shape, or ``out`` not (n,): named errors, no write."""
+    from ibvs_youla.exceptions import InvalidArrayError, InvalidParameterError
+
+    estimator = CameraPoseEstimator(iy.PinholeCamera.normalized(), SQUARE)
+    with pytest.raises(InvalidArrayError, match=r"features: received an array of shape \(7,\)"):
+        estimator.write_marker_depths(np.zeros(7), np.zeros(4))
+    short = np.zeros(4)
+    with pytest.raises(InvalidArrayError, match=r"out: received an array of shape \(2,\)"):
+        estimator.write_marker_depths(np.full(8, 0.1), short[:2])
+    np.testing.assert_array_equal(short, 0.0)
+    stereo = CameraPoseEstimator(iy.StereoCamera.zed2(), SQUARE + np.array([0.0, 0.0, 2.0]))
+    with pytest.raises(InvalidParameterError, match="a stereo camera triangulates its depths"):
+        stereo.write_marker_depths(np.zeros(12), np.zeros(4))

@@ -150,15 +150,20 @@ def test_the_compiled_pose_route_gives_the_numpy_reference(reference_point):
     """update's compiled law (two_half_d_kernels.pose_route_twist) against its numpy reference on the same
     pose: twist and task function to 1e-14 (sums of a few products in the same order; the 4 x 4 product
     BLAS may fuse), on 40 seeded views around the target."""
+    from ibvs_youla.controllers.two_half_d_kernels import pose_route_twist
+
     controller = TwoHalfD(reference_point=reference_point)
     controller.reset(tutorial_task())
+    twist, error = np.empty(6), np.empty(6)
     for T in random_views(40, seed=11):
-        frame = CameraFrame(0.0, normalized(T), np.ones(4, bool))
-        controller.update(frame, None)
-        compiled = controller.command(None).copy(), controller.signals()["servo_error"].copy()
-        controller._pose_route_reference(controller.pose_estimator(frame.features), frame.features)
-        np.testing.assert_allclose(compiled[0], controller.command(None), rtol=0, atol=1e-14)
-        np.testing.assert_allclose(compiled[1], controller.signals()["servo_error"], rtol=0, atol=1e-14)
+        features = normalized(T)
+        T_est = controller.pose_estimator(features)
+        assert pose_route_twist(T_est, *controller.pose_route_law(), features, twist, error)  # not declined
+        controller._pose_route_reference(T_est, features)
+        np.testing.assert_allclose(twist, controller.command(None), rtol=0, atol=1e-14)
+        np.testing.assert_allclose(error, controller.signals()["servo_error"], rtol=0, atol=1e-14)
+        controller.update(CameraFrame(0.0, features, np.ones(4, bool)), None)  # update calls the kernel
+        np.testing.assert_array_equal(controller.command(None), twist)
 
 
 def test_the_compiled_pose_route_leaves_a_point_behind_the_camera_to_the_reference():

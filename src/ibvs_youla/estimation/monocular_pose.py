@@ -322,6 +322,16 @@ class CameraPoseEstimator:
         R_C_ref, t_C = self._pnp(features, features.tobytes())
         return self._P @ R_C_ref[2] + t_C[2]  # type: ignore[no-any-return]
 
+    def restart(self) -> None:
+        """Forget the last images' poses and the fallback count: a run made again from its first frame.
+
+        The compiled frame path calls the controller's estimator; where it declines and the plug-in
+        loop makes the run again, the count (and ``metadata["pnp_fallbacks"]``) is the second run's.
+        """
+        self._last = None
+        self._last_pnp = None
+        self.fallbacks = 0
+
     def write_marker_depths(self, features: np.ndarray, out: np.ndarray) -> None:
         """:meth:`marker_depths` into ``out`` (n,), for features this estimator's shape (not checked).
 
@@ -329,17 +339,30 @@ class CameraPoseEstimator:
         compiled call (:func:`~.pnp_kernels.pnp_depths`, the arithmetic of :meth:`marker_depths` to
         rounding). An image OpenCV finds no pose for, or raises on, takes :meth:`marker_depths`,
         which gives its fallback (:data:`IPPE_FALLBACK`) or its error. The pose is not kept for a
-        later call with the same features.
+        later call with the same features (and the last one kept is forgotten: a later image's
+        fallback must not find an older image's PnP).
+
+        Raises:
+            InvalidParameterError: the camera is a StereoCamera.
+            InvalidArrayError: features of another shape than this camera's, ``out`` not (n,).
+            PoseEstimationError: as :meth:`marker_depths`.
         """
         import cv2
 
+        if not isinstance(self.camera, PinholeCamera):
+            self.marker_depths(features)  # its InvalidParameterError: a stereo camera triangulates
+        self._check_shape(features)
+        if getattr(out, "shape", None) != (self._n,):
+            raise InvalidArrayError("out", f"an array of shape {np.shape(out)}", f"shape ({self._n},)")
         normalized = features.reshape(self._n, 2) / self.camera.focal_length
         try:
             ok, rvec, tvec = cv2.solvePnP(self._P, normalized, _EYE3, None, flags=self._flag)
         except cv2.error:
             ok = False
-        if not (ok and pnp_depths(rvec, tvec, self._P, out)):
-            out[:] = self.marker_depths(features)
+        if ok and rvec.shape == tvec.shape == (3, 1) and pnp_depths(rvec, tvec, self._P, out):
+            self._last_pnp = None  # not these features' PnP: the cache must not answer for an older image
+            return
+        out[:] = self.marker_depths(features)
 
     def _check_shape(self, features: np.ndarray) -> None:
         """InvalidArrayError unless the features have the shape of this camera's for the points."""

@@ -318,6 +318,10 @@ class PreparedRun:
             result = compiled.run(progress, self.label)
             if result is not None:
                 return with_pnp_fallbacks(result, self.controller)
+            # declined: the plug-in loop makes the run again, its estimator's count from zero
+            restart = getattr(getattr(self.controller, "pose_estimator", None), "restart", None)
+            if restart is not None:
+                restart()
         self.recorder.metadata["loop"] = "plug-in"  # the roles' loop; also where the compiled one declined
         result = ServoLoop(
             *self.roles, self.recorder, self.command_signals, self.command_type, self.declared_shapes

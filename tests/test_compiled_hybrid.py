@@ -96,7 +96,8 @@ def test_free_camera_depth_sensor_switching_to_pbvs():
 def test_the_margin_and_the_gain_each_move_the_switch_alike_in_both_loops(options, switched_at):
     """Each option alone moves the switch from 0.48 s (the bounds (1 + margin) V(0); both laws' lambda):
     margin 0.5 to 1.0 s, gain 0.9 to 0.28 s, the same in both loops (a depth sensor: 1e-12)."""
-    assert_hybrid_run(*both(TURNED, HybridSwitched(**options), sensor="depth", **FREE), switched_at=switched_at)
+    runs = both(TURNED, HybridSwitched(**options), sensor="depth", **FREE)
+    assert_hybrid_run(*runs, switched_at=switched_at)
 
 
 @pytest.mark.parametrize("sensor", ["depth", None])

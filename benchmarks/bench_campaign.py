@@ -472,10 +472,17 @@ def pnp_floor(specs: list[ExperimentSpec]) -> dict[str, Any]:
         "calls_per_case": len(replay),
         "calls_by_method": {m: len(c) for m, c in calls.items()},
         "flags": sorted({int(kw.get("flags", -1)) for _, kw in replay}),
+        "solvers": sorted({_solver_name(cv2, int(kw.get("flags", -1))) for _, kw in replay}),
         "us_per_call": per_call * 1e6,
         "case_s": case_s,
         "free_1000x7_minutes": {str(k): 1000 * case_s / k / 60.0 for k in WORKERS},
     }
+
+
+def _solver_name(cv2: Any, flag: int) -> str:
+    """OpenCV's name of a solvePnP flag without its prefix (``SOLVEPNP_SQPNP`` -> ``SQPNP``)."""
+    names = [n for n in dir(cv2) if n.startswith("SOLVEPNP_") and getattr(cv2, n) == flag]
+    return names[0].removeprefix("SOLVEPNP_") if names else str(flag)
 
 
 def full_free_campaign(args: argparse.Namespace) -> dict[str, Any]:

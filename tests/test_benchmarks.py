@@ -245,6 +245,7 @@ def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
     floor = saved["pnp_floor"]
     assert floor["calls_by_method"] == {m: 0 if m == "ibvs-desired" else 6 for m in bench.TWIST_METHODS}
     assert floor["calls_per_case"] == 36 and floor["flags"] == [cv2.SOLVEPNP_SQPNP]
+    assert floor["solvers"] == ["SQPNP"]
     assert floor["us_per_call"] == pytest.approx(floor["case_s"] / 36 * 1e6)
     for k in ("1", "2"):
         assert floor["free_1000x7_minutes"][k] == pytest.approx(1000 * floor["case_s"] / int(k) / 60.0)
@@ -256,8 +257,8 @@ def test_campaign_benchmark_writes_runs_per_minute_and_scaling(tmp_path):
     loops = {m: iy.simulate(TUTORIAL, m, **free).metadata["loop"] for m in bench.TWIST_METHODS}
     assert {m for m, loop in loops.items() if loop == "compiled"} == set(bench.COMPILED_METHODS)
     figures = load("figures")  # README's tables: the floor beside the sizings, and among the targets
-    assert "OpenCV's PnP alone: 36 SQPnP calls a case" in figures.campaign(saved)
-    assert "OpenCV's SQPnP calls alone" in figures.targets({"campaign": saved})
+    assert "OpenCV's PnP alone: 36 SQPNP calls a case" in figures.campaign(saved)
+    assert "OpenCV's SQPNP calls alone" in figures.targets({"campaign": saved})
 
 
 def test_peers_benchmark_writes_our_steps_and_its_table(tmp_path):

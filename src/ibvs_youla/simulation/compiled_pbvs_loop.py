@@ -67,7 +67,7 @@ class CompiledPBVSLoop(CompiledLoop):
             chain, gain=(0.0, 0.0, 0.0, False), pinv_threshold=0.0, interaction=0, depth_from=DEPTH_MEASURED
         )
         self.T_target_O = inverse_pose(np.asarray(controller.task.T_O_C_target, dtype=float))  # c*T_O
-        self.gain = float(controller.gain)  # lambda [1/s]
+        self.lambda_ = float(controller.gain)  # PBVS's lambda [1/s] (the base's gain is IBVS's signal array)
         self.pose_estimator = controller.pose_estimator
         self.T_O_C_estimate = np.eye(4)  # the controller's estimate of the frame's pose
         self.error = np.zeros(6)  # e = (c*t_c [m], theta u [rad]): the signal servo_error
@@ -94,7 +94,7 @@ class CompiledPBVSLoop(CompiledLoop):
     ) -> int:
         """The compiled call of frame k on the free camera: the law, the sample, the step (the next row)."""
         return pbvs_free_camera_step(  # type: ignore[no-any-return]
-            k, T_O_C, self.T_O_C_estimate, self.T_target_O, self.gain, self.m, self.markers_O.shape[0],
+            k, T_O_C, self.T_O_C_estimate, self.T_target_O, self.lambda_, self.m, self.markers_O.shape[0],
             self.params, frame, self.twist, self.error, table, row, self.recorder.row_sizes, frames,
         )  # fmt: skip
 
@@ -112,7 +112,7 @@ class CompiledPBVSLoop(CompiledLoop):
     ) -> int:
         """The compiled call of tick k on the kinematic arm: on a frame the law, then the tick."""
         return pbvs_kinematic_tick(  # type: ignore[no-any-return]
-            k, is_frame, T_O_C, J_C, state, self.T_O_C_estimate, self.T_target_O, self.gain, self.m,
+            k, is_frame, T_O_C, J_C, state, self.T_O_C_estimate, self.T_target_O, self.lambda_, self.m,
             self.markers_O.shape[0], self.params, frame, self.twist, self.error, table, row,
             self.recorder.row_sizes, frames, k // self.ticks_per_frame,
         )  # fmt: skip

@@ -19,7 +19,8 @@ Each is a composition of per-equation kernels (:func:`measure`, :func:`ibvs_twis
 :func:`exp6_integrate`) on plain arrays of one case, so that a batch of cases can run them in a
 compiled loop over cases. What follows the law is its own kernel, the same for any law that gives a
 camera twist: :func:`camera_step` (the frame logged, the sample, the free camera's step) and
-:func:`joint_step` (the arm's tick); PBVS's frame (:mod:`.pose_frame_kernels`) ends with them too.
+:func:`joint_step` (the arm's tick); the frames of PBVS and 2.5-D (:mod:`.pose_frame_kernels`) and of
+the hybrid law (:mod:`.hybrid_frame_kernels`) end with them too.
 They do not validate and never raise: wherever the plug-in loop would stop or raise (a depth or
 disparity the projection rejects, a failed SVD, a non-finite command), they return
 :data:`DECLINED`, and the caller runs the plug-in loop instead, which reproduces its status or

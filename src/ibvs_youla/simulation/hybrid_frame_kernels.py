@@ -19,9 +19,11 @@ does the rest of the frame:
 
 V_i and V_p decide the switches, so they are the reference's floats, not merely close: the squared
 norms (:func:`squared_norm`) are ``np.dot`` of a vector with itself, which calls BLAS ``ddot`` as
-numpy's ``e @ e`` does (the same OpenBLAS kernel: equal to the bit on 20,000 random vectors of 1 to
-40 entries, where a sum in index order differs on a quarter of them; ``tests/test_compiled_hybrid.py``
-pins 2,000). The laws' twists equal the plug-in loop's to
+numpy's ``e @ e`` does. They are two OpenBLAS builds (numpy's, and scipy's, which Numba calls
+through ``cython_blas``), equal to the bit today on 20,000 random vectors of 1 to 40 entries, where
+a sum in index order differs on a quarter of them: an agreement of the builds, not a guarantee, so
+``tests/test_compiled_hybrid.py`` pins it (2,000 vectors) and fails first if a new build breaks it.
+The laws' twists equal the plug-in loop's to
 rounding (``tests/test_compiled_hybrid.py``). Like :mod:`.frame_kernels`, the kernels do not
 validate and never raise: where either law's reference would raise or give a non-finite twist
 (or theta u is scipy's to compute) they return :data:`~.frame_kernels.DECLINED`, and the caller

@@ -67,11 +67,12 @@ def test_batched_rows_are_the_rows_of_runs_alone_and_of_the_plug_in_loop(free_sp
         same_row(row, row_from_result(spec, result), tolerance=1e-9)
 
 
-def test_the_hybrid_laws_rows_are_the_plug_in_loops():
-    """The hybrid law runs alone, on its compiled frame path: its rows are the plug-in loop's (what
-    ``run_spec`` gave before that path) to 1e-9. None of these five switches (the switching runs are
-    ``tests/test_compiled_hybrid.py``'s)."""
-    specs = specs_for(generate_cases("free-planar", 5, 0), ("hybrid",), seed=0, **FREE)
+@pytest.mark.parametrize("method", ["hybrid", "ibvs-polar"])
+def test_the_hybrid_and_polar_laws_rows_are_the_plug_in_loops(method):
+    """The hybrid law and polar IBVS run alone, on their compiled frame paths: their rows are the plug-in
+    loop's (what ``run_spec`` gave before those paths) to 1e-9. None of the hybrid law's five switches
+    (the switching runs are ``tests/test_compiled_hybrid.py``'s)."""
+    specs = specs_for(generate_cases("free-planar", 5, 0), (method,), seed=0, **FREE)
     for spec in specs:
         compiled = simulate(**spec.build())
         plugged = simulate(**spec.build(), loop="plug-in")

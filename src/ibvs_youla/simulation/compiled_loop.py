@@ -14,6 +14,8 @@ loop="plug-in")`` keeps the plug-in loop):
   the 2.5-D law (:mod:`.compiled_two_half_d_loop`);
   or a :class:`~ibvs_youla.controllers.hybrid.HybridSwitched`, both laws and the switch in one
   compiled call after the same estimator (:mod:`.compiled_hybrid_loop`);
+  or a :class:`~ibvs_youla.controllers.polar.PolarIBVS`, this loop's depths with the law on polar
+  features (:mod:`.compiled_polar_loop`);
 * the sensor: the ideal :class:`~.sensor.MarkerSensor`, with or without depth, not wrapped by a
   disturbance (noise, dropouts, latency, images);
 * the plant: the free camera (:class:`~.free_camera.FreeCameraPlant`), or the kinematic arm
@@ -37,7 +39,7 @@ Pinocchio's camera pose and J_C (the arm's kinematics) and one compiled call.
 
 It gives the plug-in loop's result to rounding (``tests/test_compiled_frame_path.py`` and, for
 PBVS, ``tests/test_compiled_pbvs.py``, for 2.5-D ``tests/test_compiled_two_half_d.py``, for the
-hybrid law ``tests/test_compiled_hybrid.py``: 1e-12
+hybrid law ``tests/test_compiled_hybrid.py``, for polar IBVS ``tests/test_compiled_polar.py``: 1e-12
 on every method x plant x camera covered), with
 ``metadata["loop"] = "compiled"``, except where SQPnP is in the loop (the depths from the PnP pose,
 or a monocular pose): SQPnP stops its iterations at a step of ~1e-5 (``||delta||^2 <=

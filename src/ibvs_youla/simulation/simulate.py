@@ -44,6 +44,7 @@ from .actuation import actuation_chain
 from .compiled_hybrid_loop import CompiledHybridLoop
 from .compiled_loop import CompiledLoop
 from .compiled_pbvs_loop import CompiledPBVSLoop
+from .compiled_polar_loop import CompiledPolarLoop
 from .compiled_two_half_d_loop import CompiledTwoHalfDLoop
 from .controller_checks import checked_signals, checked_spec, command_type_of, controller_name, failed
 from .disturbances import Disturbances
@@ -61,7 +62,7 @@ __all__ = ["PLANTS", "SENSORS", "Beliefs", "PreparedRun", "default_camera", "pre
 
 LOOPS = ("auto", "plug-in")
 # the compiled frame paths, by the law they run
-COMPILED_LOOPS = (CompiledLoop, CompiledPBVSLoop, CompiledTwoHalfDLoop, CompiledHybridLoop)
+COMPILED_LOOPS = (CompiledLoop, CompiledPBVSLoop, CompiledTwoHalfDLoop, CompiledHybridLoop, CompiledPolarLoop)
 SENSORS = ("ideal", "depth", "images")
 
 
@@ -202,7 +203,8 @@ def simulate(
         loop: ``"auto"``: the compiled frame path (:mod:`.compiled_loop`: one compiled call per
             frame, the same result to rounding) when every role is the library's own and one it
             covers (classical IBVS, PBVS (:mod:`.compiled_pbvs_loop`), 2.5-D on its pose route
-            (:mod:`.compiled_two_half_d_loop`) or the hybrid law (:mod:`.compiled_hybrid_loop`);
+            (:mod:`.compiled_two_half_d_loop`), the hybrid law (:mod:`.compiled_hybrid_loop`) or
+            polar IBVS (:mod:`.compiled_polar_loop`);
             the ideal sensor with or without depth; the free camera or the kinematic arm), else the
             plug-in loop
             (:mod:`.loop`); ``"plug-in"``: always the plug-in loop. ``result.metadata["loop"]``

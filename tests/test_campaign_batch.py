@@ -77,7 +77,8 @@ def test_the_hybrid_and_polar_laws_rows_are_the_plug_in_loops(method):
         compiled = simulate(**spec.build())
         plugged = simulate(**spec.build(), loop="plug-in")
         assert compiled.metadata["loop"] == "compiled" and plugged.metadata["loop"] == "plug-in"
-        assert compiled.hybrid_switches[-1, 0] == plugged.hybrid_switches[-1, 0] == 0.0  # as said above
+        if method == "hybrid":
+            assert compiled.hybrid_switches[-1, 0] == plugged.hybrid_switches[-1, 0] == 0.0  # as said above
         same_row(run_spec(spec), row_from_result(spec, plugged), tolerance=1e-9)
 
 

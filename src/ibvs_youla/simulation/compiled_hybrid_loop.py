@@ -45,7 +45,7 @@ from ..model.camera import PinholeCamera
 from .compiled_loop import CompiledLoop
 from .frame_kernels import DEPTH_MEASURED, DEPTH_TRIANGULATED
 from .hybrid_frame_kernels import hybrid_free_camera_step, hybrid_kinematic_tick
-from .loop import ESTIMATE_ERRORS
+from .loop import ESTIMATE_ERRORS, estimate_failed_reason
 
 __all__ = ["CompiledHybridLoop"]
 
@@ -104,10 +104,7 @@ class CompiledHybridLoop(CompiledLoop):
         except ESTIMATE_ERRORS as err:
             if not self.monocular:  # IBVS's own errors come first in the plug-in loop: it decides
                 return None
-            self.stop_status = (
-                "estimate_failed",
-                f"t = {t:.6g} s: {type(self.controller).__name__}'s estimate failed: {err}",
-            )
+            self.stop_status = ("estimate_failed", estimate_failed_reason(self.controller, t, err))
             return False
         except Exception:  # the plug-in loop raises it as the controller's error
             return None

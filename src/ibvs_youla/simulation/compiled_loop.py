@@ -84,6 +84,7 @@ from .frame_kernels import (
 )
 from .free_camera import FreeCameraPlant
 from .kinematic_arm import KinematicArmPlant
+from .loop import estimate_failed_reason
 from .recorder import ResultRecorder
 from .results import SimulationResult
 from .sensor import MarkerSensor
@@ -281,7 +282,7 @@ class CompiledLoop:
         try:
             self.pose_estimator.write_marker_depths(frame[:m], frame[m + n :])  # type: ignore[union-attr]
         except PoseEstimationError as err:
-            return f"t = {t:.6g} s: {type(self.controller).__name__}'s estimate failed: {err}"
+            return estimate_failed_reason(self.controller, t, err)
         return None
 
     def _measured(self, T_O_C: np.ndarray, frame: np.ndarray, k: int) -> bool | None:

@@ -43,7 +43,7 @@ from .._geometry import inverse_pose
 from ..controllers.pbvs import PBVS
 from .compiled_loop import CompiledLoop
 from .frame_kernels import DEPTH_MEASURED
-from .loop import ESTIMATE_ERRORS
+from .loop import ESTIMATE_ERRORS, estimate_failed_reason
 from .pose_frame_kernels import pbvs_free_camera_step, pbvs_kinematic_tick
 
 __all__ = ["CompiledPBVSLoop"]
@@ -79,10 +79,7 @@ class CompiledPBVSLoop(CompiledLoop):
         try:
             T_O_C = self.pose_estimator(frame[:m].copy(), depth)
         except ESTIMATE_ERRORS as err:  # as the plug-in loop reports the failed update
-            self.stop_status = (
-                "estimate_failed",
-                f"t = {t:.6g} s: {type(self.controller).__name__}'s estimate failed: {err}",
-            )
+            self.stop_status = ("estimate_failed", estimate_failed_reason(self.controller, t, err))
             return False
         except Exception:  # the plug-in loop raises it as the controller's error
             return None

@@ -57,7 +57,7 @@ from .progress import progress_bar
 from .recorder import ResultRecorder
 from .results import SimulationResult
 
-__all__ = ["ESTIMATE_ERRORS", "ServoLoop"]
+__all__ = ["ESTIMATE_ERRORS", "ServoLoop", "estimate_failed_reason"]
 
 # What a controller's update raises when its own models fail on a valid image: the run stops with
 # status "estimate_failed" (e.g. Eq. (62) has no IK branch within the joint limits, a PnP finds no
@@ -69,6 +69,11 @@ ESTIMATE_ERRORS = (
     PoseEstimationError,
     FeatureSingularityError,
 )
+
+
+def estimate_failed_reason(controller: Any, t: float, err: Exception) -> str:
+    """The reason of a run that stops with status ``"estimate_failed"`` at t [s] (every loop's words)."""
+    return f"t = {t:.6g} s: {type(controller).__name__}'s estimate failed: {err}"
 
 
 @dataclass
@@ -185,7 +190,7 @@ class ServoLoop:
                     try:
                         controller.update(_own_frame(frame), given)
                     except ESTIMATE_ERRORS as err:  # the controller's own models failed on a valid image
-                        self._reason = f"t = {t:.6g} s: {type(controller).__name__}'s estimate failed: {err}"
+                        self._reason = estimate_failed_reason(controller, t, err)
                         return "estimate_failed"
                     except Exception as err:  # a user's bug: typed, named, with the samples so far
                         raise failed(controller, "update", t, err) from err

@@ -5,7 +5,8 @@ disturbances) in one ``simulate_batch`` call and the others alone; its rows are 
 ``run_spec``'s, every column but the measured times, on seeded free-planar cases (monocular
 normalized camera, the depths from SQPnP) and arm-physical cases on the kinematic arm (stereo).
 They are equal to the bit. Against the plug-in loop (what ``run_spec`` gave before classical IBVS,
-PBVS and the hybrid law had compiled paths; PBVS's and the hybrid law's rows, run alone, included),
+PBVS, the hybrid law and polar IBVS had compiled paths; the rows of the last three, run alone,
+included),
 every number to 1e-9, relative or absolute (SQPnP's stopping tolerance is the difference, measured
 6e-10 relative on ``final_position_mm``).
 """

@@ -75,7 +75,8 @@ def test_free_camera_depth_sensor(wrap):
 
 @pytest.mark.parametrize("wrap", ["joint", "per-point"])
 def test_free_camera_turned_about_the_optical_axis(wrap):
-    """170 deg about the axis: the phi errors near the cut; the camera turns (its z axis barely moves)."""
+    """170 deg about the axis (the phi errors 10 deg from the cut: the wraps differ here, not rounding):
+    the camera turns (its z axis barely moves)."""
     compiled, plugged = both(TURNED, PolarIBVS(wrap=wrap), sensor="depth", **FREE)
     assert_polar_run(compiled, plugged)
     assert np.abs(plugged.camera_twist[:, 5]).max() > 0.1  # [rad/s]: a turn about the optical axis
@@ -162,3 +163,49 @@ def test_a_point_at_the_principal_point_declines_to_the_plug_in_loop():
         outcome[loop] = (result.metadata["loop"], result.status, result.metadata["error"])
     assert outcome["auto"] == outcome["plug-in"]
     assert outcome["auto"][:2] == ("plug-in", "estimate_failed") and "principal point" in outcome["auto"][2]
+
+
+@pytest.mark.parametrize("wrap", ["joint", "per-point"])
+def test_an_exact_half_turn_is_the_plug_in_loops_to_wrap(wrap):
+    """The start turned exactly 180 deg about the optical axis: every phi error on the wrap's cut, where the
+    kernel's atan2 and numpy's may round to opposite sides (w_z = +-lambda pi). The kernel declines at
+    the first frame and the plug-in loop makes the run: its result, in both loops (the same floats)."""
+    half_turn = iy.Scenario.free_camera(
+        T_O_C_start=T_O_C([0, 0, 0.75], [0, 0, 180]),
+        T_O_C_target=T_O_C([0, 0, 0.75], [0, 0, 0]),
+        markers_O=SQUARE_O,
+    )
+    compiled, plugged = both(half_turn, PolarIBVS(wrap=wrap), sensor="depth", **FREE)
+    assert compiled.metadata["loop"] == plugged.metadata["loop"] == "plug-in"
+    np.testing.assert_array_equal(compiled.signals["camera_twist"], plugged.signals["camera_twist"])
+
+
+def test_the_kernel_declines_a_phi_error_on_the_cut_and_not_one_off_it():
+    """polar_twist itself: a per-point phi error of pi (to 1e-12) declines, one of pi - 1e-6 does not."""
+    from ibvs_youla.model.camera_kernels import camera_parameters
+    from ibvs_youla.simulation.frame_kernels import DEPTH_MEASURED, pack_parameters
+    from ibvs_youla.simulation.polar_frame_kernels import polar_twist
+
+    camera = camera_parameters(NORMALIZED)
+    params = pack_parameters(
+        camera, camera, dt=0.04, gain=(0.5, 0.5, 0.0, False), pinv_threshold=1e-6, interaction=0,
+        depth_from=DEPTH_MEASURED, virtual_points=False, measure_depth=True, record_every=1, n_ticks=1,
+    )  # fmt: skip
+    points = np.array([[0.1, 0.1], [-0.1, 0.1], [-0.1, -0.1], [0.1, -0.1]])  # normalized, at Z = 1 m
+    frame = np.concatenate((points.ravel(), np.ones(4), np.ones(4)))
+    r, phi = np.hypot(points[:, 0], points[:, 1]), np.arctan2(points[:, 1], points[:, 0])
+    settings = np.array([0.5, 1.0, 1.0, 2.0])  # lambda, per-point, F, rows per point
+    for offset, declines in ((np.pi, True), (np.pi - 1e-6, False)):
+        law = np.column_stack((r, phi - offset)).ravel()  # s*: every phi error = offset
+        twist = np.full(6, 7.0)
+        assert polar_twist(frame, 4, 8, law, params, settings, twist) is not declines, offset
+
+
+def test_the_gain_alone_changes_the_run_alike_in_both_loops():
+    """lambda 0.8 instead of 0.5: the compiled path reads it (equal to the plug-in loop to 1e-12) and it
+    acts (the camera ends elsewhere by more than 1 mm after 0.4 s)."""
+    kwargs = dict(FREE, duration=0.4)
+    compiled, plugged = both(TUTORIAL, PolarIBVS(gain=0.8), sensor="depth", **kwargs)
+    assert_polar_run(compiled, plugged)
+    default = iy.simulate(TUTORIAL, PolarIBVS(), sensor="depth", **kwargs)
+    assert np.abs(compiled.camera_pose[-1] - default.camera_pose[-1]).max() > 1e-3

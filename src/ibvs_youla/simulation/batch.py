@@ -5,8 +5,8 @@ from many scenarios. :func:`simulate_batch` prepares each case exactly as :func:
 does (:func:`~.simulate.prepare_run`: the same checks, roles, beliefs and metadata), then advances
 all of them in lockstep, one compiled call per frame over the cases (:mod:`.batch_loop`), instead
 of one Python loop per run. What it covers is what the compiled frame path covers for classical
-IBVS (:mod:`.compiled_loop`; the compiled frame paths of PBVS, 2.5-D and the hybrid law run in
-``simulate()`` only):
+IBVS (:mod:`.compiled_loop`; the compiled frame paths of PBVS, 2.5-D, the hybrid law and polar
+IBVS run in ``simulate()`` only):
 
 * the controller: ``"ibvs-current"``, ``"ibvs-desired"`` or ``"ibvs-mean"`` (a constant or adaptive
   gain), or a :class:`~ibvs_youla.controllers.ibvs.ClassicalIBVS` object;

@@ -12,8 +12,10 @@ other signal) and the plant's step. :func:`~ibvs_youla.simulate` runs it when th
 
 The run equals the plug-in loop's to rounding (``tests/test_compiled_polar.py``: 1e-12; 1e-7 where
 SQPnP is in the loop, :mod:`.compiled_loop` says why). Where the update would raise (a point at the
-principal point, a rejected depth or disparity, a failed SVD) or give a non-finite twist, the kernel
-declines and the plug-in loop runs the case from the start.
+principal point, a rejected depth or disparity, a failed SVD) or give a non-finite twist, and where
+a phi error lies on the wrap's cut (within 1e-9 rad of +-pi: which side it wraps to is the rounding
+of numpy's arctan2, :mod:`.polar_frame_kernels`), the kernel declines and the plug-in loop runs the
+case from the start.
 """
 
 from __future__ import annotations

@@ -21,10 +21,13 @@ frame:
   is empty.
 
 The controller's update computes sin, cos, atan2 and the products in numpy, these kernels in
-compiled code: equal to rounding (``tests/test_compiled_polar.py``: 1e-12). Like
-:mod:`.frame_kernels`, they do not validate and never raise: where the update would raise (a point
-at the principal point, a depth or disparity the reference rejects, a failed SVD) or give a
-non-finite twist, they return :data:`~.frame_kernels.DECLINED`, and the caller runs the plug-in loop.
+compiled code: equal to rounding (``tests/test_compiled_polar.py``: 1e-12), except where a rounding
+decides: the phi error's wrap. numpy's arctan2 and the kernel's atan2 differ in the last bit on a few
+% of inputs, so a phi error within 1e-9 rad of the cut (+-pi), or a joint mean on it, may wrap to
+the other side; there the kernel declines and the reference decides. Like :mod:`.frame_kernels`,
+they do not validate and never raise: where the update would raise (a point at the principal point,
+a depth or disparity the reference rejects, a failed SVD) or give a non-finite twist, they return
+:data:`~.frame_kernels.DECLINED`, and the caller runs the plug-in loop.
 
 Layouts: ``law`` (2 k n,) is the target's polar features s*; ``settings`` (4,) is (lambda [1/s],
 wrap (0 ``"joint"``, 1 ``"per-point"``), F of the believed camera, rows per point (2 or 3)).
@@ -60,6 +63,10 @@ __all__ = ["polar_free_camera_step", "polar_kinematic_tick", "polar_twist"]
 _GAIN, _WRAP, _FOCAL, _ROWS = 0, 1, 2, 3  # settings
 _MIN_RADIUS = 1e-12  # polar.MIN_RADIUS
 _PER_POINT = 1.0
+# A phi error within this of the wrap's cut (+-pi) is the reference's to wrap: the kernel's atan2 (libm)
+# and numpy's arctan2 (SIMD) differ in the last bit on a few % of inputs, which may wrap it the other way
+_CUT_MARGIN = 1e-9  # [rad]
+_MAX_SUMMED = 128  # _numpy_sum is numpy's sum up to 128 entries (its pairwise leaf); more: the reference
 
 
 @jit
@@ -156,14 +163,25 @@ def polar_twist(
         d[p] = phi - law[2 * p + 1]
     if settings[_WRAP] == _PER_POINT:  # polar_error
         for p in range(count):
-            e[2 * p + 1] = _wrapped(d[p])
+            w = _wrapped(d[p])
+            if abs(abs(w) - math.pi) < _CUT_MARGIN:
+                return False  # on the cut: the reference decides the side
+            e[2 * p + 1] = w
     else:
+        if count > _MAX_SUMMED:
+            return False
         sines, cosines = np.empty(count), np.empty(count)
         for p in range(count):
             sines[p], cosines[p] = math.sin(d[p]), math.cos(d[p])
-        mean = math.atan2(_numpy_sum(sines), _numpy_sum(cosines))
+        S, C = _numpy_sum(sines), _numpy_sum(cosines)
+        if abs(S) < _CUT_MARGIN * count and C < 0.0:
+            return False  # the mean itself on the cut: its sign is the reference's rounding
+        mean = math.atan2(S, C)
         for p in range(count):
-            e[2 * p + 1] = mean + _wrapped(d[p] - mean)
+            w = _wrapped(d[p] - mean)
+            if abs(abs(w) - math.pi) < _CUT_MARGIN:
+                return False
+            e[2 * p + 1] = mean + w
     U, _, g, Vt, ok = svd_gains(L, False, params[_PINV_THRESHOLD])
     if not ok:
         return False

@@ -193,3 +193,21 @@ def test_ippe_fallbacks_are_counted_as_in_the_plug_in_loop(monkeypatch):
     assert_same_run(compiled, plugged, SQPNP_TOLERANCE)  # the SQPnP images: its tolerance
     # 26 images (ticks 0 to 25), every third one IPPE's failure
     assert compiled.metadata["pnp_fallbacks"] == plugged.metadata["pnp_fallbacks"] == 26 // 3 == 8
+
+
+def test_an_exact_half_turn_is_the_plug_in_loops_to_turn():
+    """The start turned exactly 180 deg about the optical axis: theta u or -theta u is the pose's last
+    bits' choice (w_z = +-lambda pi), which the reference's numpy product and the kernel's sums may round
+    differently. The kernel declines at the first frame and the plug-in loop makes the run: its result
+    in both loops (a depth sensor; the same floats)."""
+    from test_compiled_frame_path import SQUARE_O, T_O_C
+
+    half_turn = iy.Scenario.free_camera(
+        T_O_C_start=T_O_C([0, 0, 0.75], [0, 0, 180]),
+        T_O_C_target=T_O_C([0, 0, 0.75], [0, 0, 0]),
+        markers_O=SQUARE_O,
+    )
+    compiled, plugged = both(half_turn, "pbvs", sensor="depth", **dict(FREE, duration=1.0))
+    assert compiled.metadata["loop"] == plugged.metadata["loop"] == "plug-in"
+    np.testing.assert_array_equal(compiled.signals["camera_twist"], plugged.signals["camera_twist"])
+    assert abs(plugged.signals["camera_twist"][0, 5]) > 1.0  # it turns: lambda pi = 1.57 rad/s

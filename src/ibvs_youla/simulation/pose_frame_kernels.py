@@ -20,11 +20,15 @@ as its update calls it), one compiled call does the rest of the frame:
 The products run in the reference's order (the rows of c*T_O times the columns of T_O_C, then
 R^T t), each sum in index order: the results equal the plug-in loop's to rounding
 (``tests/test_compiled_pbvs.py``: 1e-12). Like :mod:`.frame_kernels`, they do not validate and never
-raise: a rotation that ``theta_u_compiled`` leaves to scipy, or a non-finite twist, returns
+raise: a rotation that ``theta_u_compiled`` leaves to scipy, one within 1e-9 rad of a half turn
+(where theta u or -theta u is the choice of the matrix's last bits, which the reference's numpy
+product and these sums may round differently), or a non-finite twist, returns
 :data:`~.frame_kernels.DECLINED` and the caller runs the plug-in loop instead.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -40,6 +44,10 @@ __all__ = [
     "two_half_d_free_camera_step",
     "two_half_d_kinematic_tick",
 ]
+
+# theta [rad] beyond which theta u's sign is a rounding of c*R_c (u and -u are one rotation at pi):
+# the numpy product of the reference and the kernel's sums may choose differently, so the reference runs
+_NEAR_HALF_TURN = math.pi - 1e-9
 
 
 @jit
@@ -64,6 +72,8 @@ def pbvs_twist(
     tu = np.empty(3)
     if not theta_u_compiled(R, tu):
         return False
+    if tu[0] * tu[0] + tu[1] * tu[1] + tu[2] * tu[2] > _NEAR_HALF_TURN**2:
+        return False  # theta within 1e-9 rad of pi: u or -u is the last bits' choice, the reference's
     for j in range(3):
         acc = 0.0
         for i in range(3):  # (R^T t)_j

@@ -37,7 +37,7 @@ from test_compiled_frame_path import (
     assert_same_run,
     both,
 )
-from test_compiled_pbvs import scripted_pnp, scripted_runs
+from test_compiled_pbvs import failed_estimate_runs, scripted_pnp
 
 NORMALIZED = iy.PinholeCamera.normalized()
 FREE = dict(plant="free-camera", camera=NORMALIZED, duration=2.0, settings=RATE_25)
@@ -182,14 +182,7 @@ def test_what_it_does_not_cover_runs_the_plug_in_loop():
 
 def test_an_estimate_that_fails_stops_the_run_as_the_plug_in_loops(monkeypatch):
     """OpenCV finds no pose from the 4th image (t = 0.12 s): status estimate_failed, the same reason."""
-    no_pose = (False, np.zeros((3, 1)), np.zeros((3, 1)))
-    restart = scripted_pnp(monkeypatch, lambda call, image, flags: no_pose if call >= 4 else None)
-    compiled, plugged = scripted_runs(restart, HybridSwitched(), **dict(FREE, duration=3.0))
-    assert compiled.metadata["loop"] == "compiled"
-    assert compiled.status == plugged.status == "estimate_failed"
-    assert compiled.metadata["error"] == plugged.metadata["error"]
-    assert compiled.metadata["error"].startswith("t = 0.12 s: HybridSwitched's estimate failed: ")
-    assert compiled.t.size == plugged.t.size == 3 and compiled.frame_t.size == plugged.frame_t.size == 3
+    compiled, plugged = failed_estimate_runs(monkeypatch, HybridSwitched(), **dict(FREE, duration=3.0))
     np.testing.assert_allclose(compiled.camera_pose, plugged.camera_pose, rtol=0, atol=SQPNP_TOLERANCE)
 
 

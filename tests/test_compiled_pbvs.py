@@ -136,16 +136,25 @@ def scripted_runs(restart, controller, **kwargs):
     return compiled, plugged
 
 
-def test_an_estimate_that_fails_stops_the_run_as_the_plug_in_loops(monkeypatch):
-    """OpenCV finds no pose from the 4th image (t = 0.12 s): status estimate_failed, the same reason."""
+def failed_estimate_runs(monkeypatch, controller, **kwargs):
+    """The compiled and the plug-in run when OpenCV finds no pose from the 4th image (t = 0.12 s), checked
+    to stop alike: status estimate_failed at the same tick, the same reason naming the controller."""
     no_pose = (False, np.zeros((3, 1)), np.zeros((3, 1)))
     restart = scripted_pnp(monkeypatch, lambda call, image, flags: no_pose if call >= 4 else None)
-    compiled, plugged = scripted_runs(restart, PBVS(), **FREE)
+    compiled, plugged = scripted_runs(restart, controller, **kwargs)
     assert compiled.metadata["loop"] == "compiled"
     assert compiled.status == plugged.status == "estimate_failed"
     assert compiled.metadata["error"] == plugged.metadata["error"]
-    assert compiled.metadata["error"].startswith("t = 0.12 s: PBVS's estimate failed: ")
+    assert compiled.metadata["error"].startswith(
+        f"t = 0.12 s: {type(controller).__name__}'s estimate failed: "
+    )
     assert compiled.t.size == plugged.t.size == 3 and compiled.frame_t.size == plugged.frame_t.size == 3
+    return compiled, plugged
+
+
+def test_an_estimate_that_fails_stops_the_run_as_the_plug_in_loops(monkeypatch):
+    """OpenCV finds no pose from the 4th image (t = 0.12 s): status estimate_failed, the same reason."""
+    compiled, plugged = failed_estimate_runs(monkeypatch, PBVS(), **FREE)
     for a, b in (
         (compiled.camera_pose, plugged.camera_pose),
         (compiled.signals["servo_error"], plugged.signals["servo_error"]),
